@@ -1,0 +1,128 @@
+#include "common/tet_mesh.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "common/error.h"
+
+namespace fissure {
+
+double signed_volume(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
+  return (p1 - p0).dot((p2 - p0).cross(p3 - p0)) / 6.0;
+}
+
+double signed_volume(const TetMesh& mesh, TetIndex t) {
+  const auto& p = mesh.rest_positions;
+  return signed_volume(p.col(mesh.tets(0, t)), p.col(mesh.tets(1, t)), p.col(mesh.tets(2, t)),
+                       p.col(mesh.tets(3, t)));
+}
+
+namespace {
+std::string element_name(std::size_t t, std::size_t first_element_number) {
+  return "tet " + std::to_string(t + first_element_number);
+}
+}  // namespace
+
+std::size_t validate_and_orient(TetMesh& mesh, const std::string& source, std::size_t first_element_number) {
+  if (mesh.node_count() == 0) throw Error(source + ": the cage has no nodes");
+  if (mesh.tet_count() == 0) throw Error(source + ": the cage has no tetrahedra");
+  if (mesh.node_count() >= kInvalidIndex || mesh.tet_count() >= kInvalidIndex) {
+    throw Error(source + ": the cage has more than 2^32-2 nodes or tets");
+  }
+  for (Eigen::Index n = 0; n < mesh.rest_positions.cols(); ++n) {
+    if (!mesh.rest_positions.col(n).allFinite()) {
+      throw Error(source + ": node " + std::to_string(n + static_cast<Eigen::Index>(first_element_number)) +
+                  " has a non-finite coordinate (NaN or Inf)");
+    }
+  }
+  std::size_t flipped = 0;
+  for (Index t = 0; t < mesh.tet_count(); ++t) {
+    for (int i = 0; i < 4; ++i) {
+      if (mesh.tets(i, t) >= mesh.node_count()) {
+        throw Error(source + ": " + element_name(t, first_element_number) + " references node " +
+                        std::to_string(mesh.tets(i, t) + first_element_number) + " but the cage has " +
+                        std::to_string(mesh.node_count()) + " nodes",
+                    "check the node numbering (0- or 1-based) and that the .node and .ele files belong together");
+      }
+      for (int j = 0; j < i; ++j) {
+        if (mesh.tets(i, t) == mesh.tets(j, t)) {
+          throw Error(source + ": " + element_name(t, first_element_number) + " uses node " +
+                      std::to_string(mesh.tets(i, t) + first_element_number) + " twice");
+        }
+      }
+    }
+    const auto& p = mesh.rest_positions;
+    double longest = 0.0;
+    for (int i = 0; i < 4; ++i) {
+      for (int j = i + 1; j < 4; ++j) {
+        longest = std::max(longest, (p.col(mesh.tets(i, t)) - p.col(mesh.tets(j, t))).norm());
+      }
+    }
+    const double volume = signed_volume(mesh, t);
+    if (!(std::abs(volume) > kDegenerateRelativeVolume * longest * longest * longest)) {
+      throw Error(source + ": " + element_name(t, first_element_number) + " is degenerate (volume " +
+                      std::to_string(volume) + " for longest edge " + std::to_string(longest) + ")",
+                  "remove or re-mesh the flat tetrahedron; its four nodes are (nearly) coplanar");
+    }
+    if (volume < 0.0) {
+      std::swap(mesh.tets(2, t), mesh.tets(3, t));
+      ++flipped;
+    }
+  }
+  return flipped;
+}
+
+CageFaces build_cage_faces(const TetMesh& mesh, const std::string& source) {
+  struct Entry {
+    std::array<Index, 3> key;
+    TetIndex tet;
+    int local;
+  };
+  std::vector<Entry> entries;
+  entries.reserve(mesh.tet_count() * 4);
+  for (Index t = 0; t < mesh.tet_count(); ++t) {
+    for (int i = 0; i < 4; ++i) {
+      std::array<Index, 3> key{mesh.tets(kTetFaceNodes[i][0], t), mesh.tets(kTetFaceNodes[i][1], t),
+                               mesh.tets(kTetFaceNodes[i][2], t)};
+      std::sort(key.begin(), key.end());
+      entries.push_back({key, t, i});
+    }
+  }
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    return a.key != b.key ? a.key < b.key : (a.tet != b.tet ? a.tet < b.tet : a.local < b.local);
+  });
+
+  CageFaces faces;
+  faces.tet_faces.resize(4, static_cast<Eigen::Index>(mesh.tet_count()));
+  std::vector<std::array<Index, 3>> nodes;
+  std::vector<std::array<Index, 2>> owners;
+  for (std::size_t i = 0; i < entries.size();) {
+    std::size_t j = i;
+    while (j < entries.size() && entries[j].key == entries[i].key) ++j;
+    if (j - i > 2) {
+      throw Error(source + ": face (" + std::to_string(entries[i].key[0]) + ", " + std::to_string(entries[i].key[1]) +
+                      ", " + std::to_string(entries[i].key[2]) + ") is shared by " + std::to_string(j - i) +
+                      " tets; a cage face may belong to at most two",
+                  "the cage is non-manifold or has duplicated tets; re-mesh it");
+    }
+    const auto f = static_cast<FaceIndex>(nodes.size());
+    const Entry& first = entries[i];
+    nodes.push_back({mesh.tets(kTetFaceNodes[first.local][0], first.tet),
+                     mesh.tets(kTetFaceNodes[first.local][1], first.tet),
+                     mesh.tets(kTetFaceNodes[first.local][2], first.tet)});
+    owners.push_back({first.tet, j - i == 2 ? entries[i + 1].tet : kInvalidIndex});
+    for (std::size_t k = i; k < j; ++k) faces.tet_faces(entries[k].local, entries[k].tet) = f;
+    i = j;
+  }
+  faces.nodes.resize(3, static_cast<Eigen::Index>(nodes.size()));
+  faces.tets.resize(2, static_cast<Eigen::Index>(nodes.size()));
+  for (std::size_t f = 0; f < nodes.size(); ++f) {
+    for (int k = 0; k < 3; ++k) faces.nodes(k, static_cast<Eigen::Index>(f)) = nodes[f][static_cast<std::size_t>(k)];
+    for (int k = 0; k < 2; ++k) faces.tets(k, static_cast<Eigen::Index>(f)) = owners[f][static_cast<std::size_t>(k)];
+  }
+  return faces;
+}
+
+}  // namespace fissure

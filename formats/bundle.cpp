@@ -1,0 +1,295 @@
+#include "formats/bundle.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <system_error>
+
+#include "common/error.h"
+#include "formats/hdf5_io.h"
+
+namespace fissure::formats {
+namespace {
+
+using h5::ElementType;
+
+// --- writing --------------------------------------------------------------------
+
+void write_matrix(hid_t group, const std::string& name, const Matrix3Xd& m) {
+  h5::write_dataset(group, name, ElementType::F64, {static_cast<hsize_t>(m.cols()), 3}, m.data());
+}
+void write_matrix(hid_t group, const std::string& name, const Matrix2Xd& m) {
+  h5::write_dataset(group, name, ElementType::F64, {static_cast<hsize_t>(m.cols()), 2}, m.data());
+}
+template <int Rows>
+void write_indices(hid_t group, const std::string& name, const Eigen::Matrix<Index, Rows, Eigen::Dynamic>& m) {
+  h5::write_dataset(group, name, ElementType::U32, {static_cast<hsize_t>(m.cols()), Rows}, m.data());
+}
+template <typename T>
+void write_vector(hid_t group, const std::string& name, ElementType type, const std::vector<T>& v) {
+  h5::write_dataset(group, name, type, {static_cast<hsize_t>(v.size())}, v.data());
+}
+
+void write_contents(hid_t file, const Bundle& b) {
+  const BundleMetadata& meta = b.metadata;
+  h5::write_attribute(file, "format", std::string(kBundleFormatName));
+  h5::write_attribute(file, "schema_version_major", std::int64_t{meta.schema_major});
+  h5::write_attribute(file, "schema_version_minor", std::int64_t{meta.schema_minor});
+  h5::write_attribute(file, "generator", meta.generator);
+  h5::write_attribute(file, "units", meta.units);
+  h5::write_attribute(file, "bake_options", meta.bake_options);
+
+  {
+    const h5::Handle inputs = h5::create_group(file, "inputs");
+    for (const BundleInput& input : meta.inputs) {
+      const h5::Handle group = h5::create_group(inputs.id(), input.role);
+      h5::write_attribute(group.id(), "file", input.name);
+      h5::write_attribute(group.id(), "sha256", input.sha256);
+    }
+  }
+  {
+    const h5::Handle render = h5::create_group(file, "render");
+    write_matrix(render.id(), "positions", b.render.positions);
+    write_indices<3>(render.id(), "triangles", b.render.triangles);
+    if (b.render.normals.cols() > 0) write_matrix(render.id(), "normals", b.render.normals);
+    if (b.render.uvs.cols() > 0) write_matrix(render.id(), "uvs", b.render.uvs);
+  }
+  {
+    const h5::Handle cage = h5::create_group(file, "cage");
+    write_matrix(cage.id(), "rest_positions", b.cage.rest_positions);
+    write_indices<4>(cage.id(), "tets", b.cage.tets);
+    write_indices<3>(cage.id(), "faces", b.faces.nodes);
+    write_indices<2>(cage.id(), "face_tets", b.faces.tets);
+    write_indices<4>(cage.id(), "tet_faces", b.faces.tet_faces);
+  }
+  {
+    const Embedding& e = b.embedding;
+    const h5::Handle group = h5::create_group(file, "embedding");
+    write_vector(group.id(), "instance_triangle", ElementType::U32, e.instance_triangle);
+    write_vector(group.id(), "instance_tet", ElementType::U32, e.instance_tet);
+    // Eigen 4×3 column-major = per vertex, 4 coordinates: stored as [I, 3, 4].
+    h5::write_dataset(group.id(), "instance_barycentric", ElementType::F64,
+                      {static_cast<hsize_t>(e.instance_count()), 3, 4}, e.instance_barycentric.data());
+    write_vector(group.id(), "node_winding", ElementType::F64, e.node_winding);
+    write_vector(group.id(), "node_inside", ElementType::U8, e.node_inside);
+    h5::write_dataset(group.id(), "tet_class", ElementType::U8, {static_cast<hsize_t>(e.tet_class.size())},
+                      e.tet_class.data());
+    write_vector(group.id(), "contour_offsets", ElementType::U64, e.contour_offsets);
+    h5::write_dataset(group.id(), "contour_points", ElementType::F64, {static_cast<hsize_t>(e.segment_count()), 2, 3},
+                      e.contour_points.data());
+    write_vector(group.id(), "contour_triangle", ElementType::U32, e.contour_triangle);
+  }
+}
+
+// --- reading --------------------------------------------------------------------
+
+class Reader {
+ public:
+  Reader(std::string path, hid_t file) : m_path(std::move(path)), m_file(file) {}
+
+  h5::Handle group(const std::string& name) const {
+    if (!h5::has_link(m_file, name)) {
+      throw Error(m_path + ": missing group /" + name, "the file is not a complete Fissure bundle; re-bake it");
+    }
+    return h5::open_group(m_file, name);
+  }
+
+  /// Checks that /group/name exists with shape [rows?, trailing...]; returns rows.
+  hsize_t expect_shape(hid_t group, const std::string& where, const std::string& name,
+                       const std::vector<hsize_t>& trailing, std::optional<hsize_t> rows = std::nullopt) const {
+    const auto shape = h5::dataset_shape(group, name);
+    const std::string full = where + "/" + name;
+    if (!shape) throw Error(m_path + ": missing dataset " + full, "re-bake the bundle");
+    bool ok = shape->size() == trailing.size() + 1;
+    for (std::size_t k = 0; ok && k < trailing.size(); ++k) ok = (*shape)[k + 1] == trailing[k];
+    if (ok && rows) ok = (*shape)[0] == *rows;
+    if (!ok) {
+      std::string got, want = rows ? std::to_string(*rows) : std::string("N");
+      for (std::size_t k = 0; k < shape->size(); ++k) {
+        if (k > 0) got += ",";
+        got += std::to_string((*shape)[k]);
+      }
+      for (hsize_t t : trailing) want += "," + std::to_string(t);
+      throw Error(m_path + ": dataset " + full + " has shape [" + got + "], expected [" + want + "]");
+    }
+    return (*shape)[0];
+  }
+
+  Matrix3Xd read3(hid_t group, const std::string& where, const std::string& name, std::optional<hsize_t> rows = {}) const {
+    Matrix3Xd m(3, static_cast<Eigen::Index>(expect_shape(group, where, name, {3}, rows)));
+    h5::read_dataset(group, name, ElementType::F64, m.data());
+    return m;
+  }
+
+  template <int Rows>
+  Eigen::Matrix<Index, Rows, Eigen::Dynamic> read_indices(hid_t group, const std::string& where, const std::string& name,
+                                                           std::size_t limit, std::optional<hsize_t> rows = {},
+                                                           bool allow_invalid = false) const {
+    Eigen::Matrix<Index, Rows, Eigen::Dynamic> m(Rows,
+                                                 static_cast<Eigen::Index>(expect_shape(group, where, name, {Rows}, rows)));
+    h5::read_dataset(group, name, ElementType::U32, m.data());
+    check_range(m.data(), static_cast<std::size_t>(m.size()), Rows, limit, where + "/" + name, allow_invalid);
+    return m;
+  }
+
+  template <typename T>
+  std::vector<T> read_vector(hid_t group, const std::string& where, const std::string& name, ElementType type,
+                             std::optional<hsize_t> rows = {}) const {
+    std::vector<T> v(expect_shape(group, where, name, {}, rows));
+    h5::read_dataset(group, name, type, v.data());
+    return v;
+  }
+
+  void check_range(const Index* data, std::size_t count, std::size_t row_width, std::size_t limit,
+                   const std::string& dataset, bool allow_invalid) const {
+    for (std::size_t i = 0; i < count; ++i) {
+      if (data[i] < limit || (allow_invalid && data[i] == kInvalidIndex)) continue;
+      throw Error(m_path + ": " + dataset + " row " + std::to_string(i / row_width) + " holds index " +
+                      std::to_string(data[i]) + ", out of range [0, " + std::to_string(limit) + ")",
+                  "the bundle is corrupt; re-bake it");
+    }
+  }
+
+  [[nodiscard]] const std::string& path() const { return m_path; }
+
+ private:
+  std::string m_path;
+  hid_t m_file;
+};
+
+BundleMetadata read_metadata(const Reader& reader, hid_t file) {
+  BundleMetadata meta;
+  const auto format = h5::read_string_attribute(file, "format");
+  if (!format || *format != kBundleFormatName) {
+    throw Error(reader.path() + ": not a Fissure bundle (root attribute 'format' is " +
+                    (format ? "'" + *format + "'" : std::string("missing")) + ")",
+                "pass a file written by fissure-bake");
+  }
+  const auto major = h5::read_integer_attribute(file, "schema_version_major");
+  const auto minor = h5::read_integer_attribute(file, "schema_version_minor");
+  if (!major || !minor) throw Error(reader.path() + ": the bundle has no schema version attributes");
+  if (*major > kBundleSchemaMajor) {
+    throw Error(reader.path() + ": bundle schema " + std::to_string(*major) + "." + std::to_string(*minor) +
+                    " is newer than this build reads (" + std::to_string(kBundleSchemaMajor) + ".x)",
+                "upgrade Fissure, or re-bake the asset with this version");
+  }
+  if (*major < kBundleSchemaMajor) {
+    throw Error(reader.path() + ": bundle schema " + std::to_string(*major) + "." + std::to_string(*minor) +
+                    " is older than this build reads (" + std::to_string(kBundleSchemaMajor) + ".x)",
+                "re-bake the asset with this version of fissure-bake");
+  }
+  meta.schema_major = static_cast<int>(*major);
+  meta.schema_minor = static_cast<int>(*minor);
+  meta.generator = h5::read_string_attribute(file, "generator").value_or("");
+  meta.units = h5::read_string_attribute(file, "units").value_or("m");
+  meta.bake_options = h5::read_string_attribute(file, "bake_options").value_or("{}");
+  if (h5::has_link(file, "inputs")) {
+    const h5::Handle inputs = h5::open_group(file, "inputs");
+    for (const std::string& role : h5::list_links(inputs.id())) {
+      const h5::Handle group = h5::open_group(inputs.id(), role);
+      meta.inputs.push_back({role, h5::read_string_attribute(group.id(), "file").value_or(""),
+                             h5::read_string_attribute(group.id(), "sha256").value_or("")});
+    }
+  }
+  return meta;
+}
+
+}  // namespace
+
+void write_bundle(const std::filesystem::path& path, const Bundle& bundle) {
+  const std::filesystem::path temporary =
+      path.string() + ".tmp-" + std::to_string(static_cast<long>(::getpid()));
+  try {
+    {
+      const h5::Handle file = h5::create_file(temporary.string());
+      write_contents(file.id(), bundle);
+      if (H5Fflush(file.id(), H5F_SCOPE_GLOBAL) < 0) throw Error(temporary.string() + ": flushing failed");
+    }
+    std::error_code ec;
+    std::filesystem::rename(temporary, path, ec);
+    if (ec) throw Error(path.string() + ": cannot move the finished bundle into place: " + ec.message());
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove(temporary, ignored);
+    throw;
+  }
+}
+
+Bundle read_bundle(const std::filesystem::path& path) {
+  const std::string name = path.string();
+  {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) throw Error(name + ": file not found");
+  }
+  const h5::Handle file = h5::open_file_read_only(name);
+  const Reader reader(name, file.id());
+  Bundle b;
+  b.metadata = read_metadata(reader, file.id());
+
+  {
+    const h5::Handle g = reader.group("render");
+    b.render.positions = reader.read3(g.id(), "/render", "positions");
+    const auto vertices = static_cast<hsize_t>(b.render.positions.cols());
+    b.render.triangles = reader.read_indices<3>(g.id(), "/render", "triangles", vertices);
+    if (h5::has_link(g.id(), "normals")) b.render.normals = reader.read3(g.id(), "/render", "normals", vertices);
+    if (h5::has_link(g.id(), "uvs")) {
+      b.render.uvs.resize(2, static_cast<Eigen::Index>(reader.expect_shape(g.id(), "/render", "uvs", {2}, vertices)));
+      h5::read_dataset(g.id(), "uvs", ElementType::F64, b.render.uvs.data());
+    }
+  }
+  {
+    const h5::Handle g = reader.group("cage");
+    b.cage.rest_positions = reader.read3(g.id(), "/cage", "rest_positions");
+    const auto nodes = static_cast<std::size_t>(b.cage.rest_positions.cols());
+    b.cage.tets = reader.read_indices<4>(g.id(), "/cage", "tets", nodes);
+    const auto tets = static_cast<hsize_t>(b.cage.tets.cols());
+    b.faces.nodes = reader.read_indices<3>(g.id(), "/cage", "faces", nodes);
+    const auto faces = static_cast<hsize_t>(b.faces.nodes.cols());
+    b.faces.tets = reader.read_indices<2>(g.id(), "/cage", "face_tets", tets, faces, true);
+    b.faces.tet_faces = reader.read_indices<4>(g.id(), "/cage", "tet_faces", faces, tets);
+  }
+  {
+    const h5::Handle g = reader.group("embedding");
+    Embedding& e = b.embedding;
+    const std::string where = "/embedding";
+    e.instance_triangle = reader.read_vector<TriangleIndex>(g.id(), where, "instance_triangle", ElementType::U32);
+    const hsize_t instances = e.instance_triangle.size();
+    e.instance_tet = reader.read_vector<TetIndex>(g.id(), where, "instance_tet", ElementType::U32, instances);
+    reader.check_range(e.instance_triangle.data(), instances, 1, b.render.triangle_count(), where + "/instance_triangle", false);
+    reader.check_range(e.instance_tet.data(), instances, 1, b.cage.tet_count(), where + "/instance_tet", false);
+    reader.expect_shape(g.id(), where, "instance_barycentric", {3, 4}, instances);
+    e.instance_barycentric.resize(instances);
+    h5::read_dataset(g.id(), "instance_barycentric", ElementType::F64, e.instance_barycentric.data());
+
+    const auto nodes = static_cast<hsize_t>(b.cage.node_count());
+    e.node_winding = reader.read_vector<double>(g.id(), where, "node_winding", ElementType::F64, nodes);
+    e.node_inside = reader.read_vector<std::uint8_t>(g.id(), where, "node_inside", ElementType::U8, nodes);
+    const auto classes = reader.read_vector<std::uint8_t>(g.id(), where, "tet_class", ElementType::U8,
+                                                          static_cast<hsize_t>(b.cage.tet_count()));
+    for (std::size_t t = 0; t < classes.size(); ++t) {
+      if (classes[t] > 2) throw Error(name + ": " + where + "/tet_class row " + std::to_string(t) + " holds " +
+                                      std::to_string(classes[t]) + "; valid classes are 0, 1, 2");
+      e.tet_class.push_back(static_cast<TetClass>(classes[t]));
+    }
+
+    const auto faces = static_cast<hsize_t>(b.faces.face_count());
+    e.contour_offsets = reader.read_vector<std::uint64_t>(g.id(), where, "contour_offsets", ElementType::U64, faces + 1);
+    e.contour_triangle = reader.read_vector<TriangleIndex>(g.id(), where, "contour_triangle", ElementType::U32);
+    const hsize_t segments = e.contour_triangle.size();
+    reader.check_range(e.contour_triangle.data(), segments, 1, b.render.triangle_count(), where + "/contour_triangle", false);
+    for (std::size_t f = 0; f < faces; ++f) {
+      if (e.contour_offsets[f] > e.contour_offsets[f + 1]) {
+        throw Error(name + ": " + where + "/contour_offsets decreases at face " + std::to_string(f));
+      }
+    }
+    if (e.contour_offsets.front() != 0 || e.contour_offsets.back() != segments) {
+      throw Error(name + ": " + where + "/contour_offsets does not span the " + std::to_string(segments) + " segments");
+    }
+    reader.expect_shape(g.id(), where, "contour_points", {2, 3}, segments);
+    e.contour_points.resize(segments);
+    h5::read_dataset(g.id(), "contour_points", ElementType::F64, e.contour_points.data());
+  }
+  return b;
+}
+
+}  // namespace fissure::formats

@@ -1,0 +1,210 @@
+#include "formats/bundle_checks.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "common/barycentric.h"
+
+namespace fissure::formats {
+namespace {
+
+std::string format_double(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.3g", value);
+  return buffer;
+}
+
+Eigen::Matrix<double, 3, 4> tet_nodes(const TetMesh& cage, TetIndex t) {
+  Eigen::Matrix<double, 3, 4> nodes;
+  for (int i = 0; i < 4; ++i) nodes.col(i) = cage.rest_positions.col(cage.tets(i, t));
+  return nodes;
+}
+
+double bounding_diagonal(const Matrix3Xd& points) {
+  if (points.cols() == 0) return 0.0;
+  return (points.rowwise().maxCoeff() - points.rowwise().minCoeff()).norm();
+}
+
+VerifyCheck check_tets_positive(const TetMesh& cage) {
+  VerifyCheck check{"tets-positive", true, ""};
+  std::size_t bad = 0;
+  for (Index t = 0; t < cage.tet_count(); ++t) {
+    if (!(signed_volume(cage, t) > 0.0)) {
+      if (bad++ == 0) check.detail = "tet " + std::to_string(t) + " has volume " + format_double(signed_volume(cage, t));
+    }
+  }
+  check.passed = bad == 0;
+  check.detail = check.passed ? std::to_string(cage.tet_count()) + " tets, all positive"
+                              : std::to_string(bad) + " non-positive tets; first: " + check.detail;
+  return check;
+}
+
+VerifyCheck check_face_table(const TetMesh& cage, const CageFaces& faces) {
+  VerifyCheck check{"face-table", true, ""};
+  for (Index t = 0; t < cage.tet_count() && check.passed; ++t) {
+    for (int i = 0; i < 4 && check.passed; ++i) {
+      const FaceIndex f = faces.tet_faces(i, t);
+      std::array<Index, 3> a{}, b{};
+      for (int k = 0; k < 3; ++k) {
+        a[static_cast<std::size_t>(k)] = cage.tets(kTetFaceNodes[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)], t);
+        b[static_cast<std::size_t>(k)] = faces.nodes(k, f);
+      }
+      std::sort(a.begin(), a.end());
+      std::sort(b.begin(), b.end());
+      const bool owner = faces.tets(0, f) == t || faces.tets(1, f) == t;
+      if (a != b || !owner) {
+        check.passed = false;
+        check.detail = "tet " + std::to_string(t) + " local face " + std::to_string(i) + " does not match face " +
+                       std::to_string(f);
+      }
+    }
+  }
+  if (check.passed) check.detail = std::to_string(faces.face_count()) + " faces consistent with the tets";
+  return check;
+}
+
+}  // namespace
+
+bool VerifyReport::passed() const {
+  return std::all_of(checks.begin(), checks.end(), [](const VerifyCheck& c) { return c.passed; });
+}
+
+std::vector<double> covered_area(const SurfaceMesh& render, const TetMesh& cage, const Embedding& embedding) {
+  std::vector<double> covered(render.triangle_count(), 0.0);
+  for (std::size_t i = 0; i < embedding.instance_count(); ++i) {
+    const auto polygon = clip_to_tet(embedding.instance_barycentric[i]);
+    covered[embedding.instance_triangle[i]] += polygon_area(polygon, tet_nodes(cage, embedding.instance_tet[i]));
+  }
+  return covered;
+}
+
+std::vector<std::size_t> replication_histogram(std::size_t triangle_count, const Embedding& embedding) {
+  std::vector<std::size_t> per_triangle(triangle_count, 0);
+  for (const TriangleIndex t : embedding.instance_triangle) ++per_triangle[t];
+  std::vector<std::size_t> histogram(9, 0);
+  for (const std::size_t count : per_triangle) ++histogram[std::min<std::size_t>(count, 8)];
+  return histogram;
+}
+
+VerifyReport verify_bundle(const Bundle& b, const VerifyTolerances& tol) {
+  VerifyReport report;
+  const Embedding& e = b.embedding;
+  const double diagonal = std::max(bounding_diagonal(b.cage.rest_positions), 1e-300);
+
+  report.checks.push_back(check_tets_positive(b.cage));
+  report.checks.push_back(check_face_table(b.cage, b.faces));
+
+  {
+    VerifyCheck sums{"barycentric-sums", true, ""};
+    VerifyCheck rebuild{"barycentric-reconstruction", true, ""};
+    double worst_sum = 0.0, worst_rebuild = 0.0;
+    for (std::size_t i = 0; i < e.instance_count(); ++i) {
+      const auto nodes = tet_nodes(b.cage, e.instance_tet[i]);
+      for (int j = 0; j < 3; ++j) {
+        const Vec4 beta = e.instance_barycentric[i].col(j);
+        const double sum_error = std::abs(beta.sum() - 1.0);
+        const Vec3 vertex = b.render.positions.col(b.render.triangles(j, e.instance_triangle[i]));
+        const double rebuild_error = (nodes * beta - vertex).norm() / diagonal;
+        if (!(sum_error <= tol.barycentric_sum) && sums.passed) {
+          sums.passed = false;
+          sums.detail = "instance " + std::to_string(i) + " vertex " + std::to_string(j) + ": sum off by " +
+                        format_double(sum_error);
+        }
+        if (!(rebuild_error <= tol.reconstruction) && rebuild.passed) {
+          rebuild.passed = false;
+          rebuild.detail = "instance " + std::to_string(i) + " (triangle " + std::to_string(e.instance_triangle[i]) +
+                           ", tet " + std::to_string(e.instance_tet[i]) + ") vertex " + std::to_string(j) +
+                           ": off by " + format_double(rebuild_error) + " of the cage diagonal";
+        }
+        worst_sum = std::max(worst_sum, sum_error);
+        worst_rebuild = std::max(worst_rebuild, rebuild_error);
+      }
+    }
+    if (sums.passed) sums.detail = "max |Σβ−1| = " + format_double(worst_sum);
+    if (rebuild.passed) rebuild.detail = "max error = " + format_double(worst_rebuild) + " of the cage diagonal";
+    report.checks.push_back(sums);
+    report.checks.push_back(rebuild);
+  }
+
+  {
+    VerifyCheck coverage{"area-coverage", true, ""};
+    const std::vector<double> covered = covered_area(b.render, b.cage, e);
+    double worst = 0.0;
+    std::size_t failing = 0;
+    for (Index t = 0; t < b.render.triangle_count(); ++t) {
+      const double area = triangle_area(b.render, t);
+      const double error = std::abs(covered[t] - area) / std::max(area, 1e-300);
+      if (area == 0.0) continue;
+      worst = std::max(worst, error);
+      if (!(error <= tol.coverage)) {
+        if (failing++ == 0) {
+          coverage.detail = "triangle " + std::to_string(t) + ": instances cover " + format_double(covered[t]) +
+                            " of its area " + format_double(area);
+        }
+      }
+    }
+    coverage.passed = failing == 0;
+    coverage.detail = coverage.passed ? "max relative error = " + format_double(worst)
+                                      : std::to_string(failing) + " triangles not exactly covered; first: " + coverage.detail;
+    report.checks.push_back(coverage);
+  }
+
+  {
+    VerifyCheck classes{"node-classes", true, ""};
+    for (std::size_t n = 0; n < e.node_inside.size() && classes.passed; ++n) {
+      if ((e.node_winding[n] >= 0.5) != (e.node_inside[n] != 0) || !std::isfinite(e.node_winding[n])) {
+        classes.passed = false;
+        classes.detail = "node " + std::to_string(n) + ": winding " + format_double(e.node_winding[n]) +
+                         " disagrees with its inside flag";
+      }
+    }
+    std::vector<bool> has_instance(b.cage.tet_count(), false);
+    for (const TetIndex t : e.instance_tet) has_instance[t] = true;
+    for (Index t = 0; t < b.cage.tet_count() && classes.passed; ++t) {
+      if (has_instance[t] != (e.tet_class[t] == TetClass::Crossing)) {
+        classes.passed = false;
+        classes.detail = "tet " + std::to_string(t) + " is classed " +
+                         std::to_string(static_cast<int>(e.tet_class[t])) + " but has " +
+                         (has_instance[t] ? "" : "no ") + "instances";
+      }
+    }
+    if (classes.passed) classes.detail = "node flags match winding numbers; tet classes match instances";
+    report.checks.push_back(classes);
+  }
+
+  {
+    VerifyCheck contours{"contours-on-faces", true, ""};
+    double worst = 0.0;
+    for (FaceIndex f = 0; f < b.faces.face_count() && contours.passed; ++f) {
+      const Vec3 a = b.cage.rest_positions.col(b.faces.nodes(0, f));
+      const Vec3 n = (b.cage.rest_positions.col(b.faces.nodes(1, f)) - a)
+                         .cross(b.cage.rest_positions.col(b.faces.nodes(2, f)) - a)
+                         .normalized();
+      for (std::uint64_t s = e.contour_offsets[f]; s < e.contour_offsets[f + 1]; ++s) {
+        const TriangleIndex tri = e.contour_triangle[s];
+        const Vec3 ta = b.render.positions.col(b.render.triangles(0, tri));
+        const Vec3 tn = (b.render.positions.col(b.render.triangles(1, tri)) - ta)
+                            .cross(b.render.positions.col(b.render.triangles(2, tri)) - ta)
+                            .normalized();
+        for (int k = 0; k < 2; ++k) {
+          const Vec3 p = e.contour_points[s].col(k);
+          const double off = std::max(std::abs(n.dot(p - a)), std::abs(tn.dot(p - ta))) / diagonal;
+          worst = std::max(worst, off);
+          if (!(off <= tol.contour)) {
+            contours.passed = false;
+            contours.detail = "segment " + std::to_string(s) + " of face " + std::to_string(f) + " lies " +
+                              format_double(off) + " of the diagonal off its face or triangle plane";
+          }
+        }
+      }
+    }
+    if (contours.passed) {
+      contours.detail = std::to_string(e.segment_count()) + " segments, max plane offset " + format_double(worst);
+    }
+    report.checks.push_back(contours);
+  }
+  return report;
+}
+
+}  // namespace fissure::formats

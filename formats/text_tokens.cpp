@@ -1,0 +1,116 @@
+#include "formats/text_tokens.h"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "common/error.h"
+
+namespace fissure::formats {
+
+TextTokens::TextTokens(const std::filesystem::path& path) : m_file(path.string()) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    throw Error(m_file + ": file not found", "check the path; relative paths are resolved from the working directory");
+  }
+  if (std::filesystem::is_directory(path, ec)) throw Error(m_file + ": is a directory, not a file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(m_file + ": cannot open the file for reading");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  m_text = buffer.str();
+
+  std::size_t line = 1;
+  std::size_t i = 0;
+  const std::size_t n = m_text.size();
+  while (i < n) {
+    const char c = m_text[i];
+    if (c == '\n') {
+      ++line;
+      ++i;
+    } else if (c == '#') {
+      while (i < n && m_text[i] != '\n') ++i;
+    } else if (c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v') {
+      ++i;
+    } else {
+      const std::size_t begin = i;
+      while (i < n && m_text[i] != '\n' && m_text[i] != '#' && m_text[i] != ' ' && m_text[i] != '\t' &&
+             m_text[i] != '\r') {
+        ++i;
+      }
+      m_tokens.push_back({begin, i - begin, line});
+    }
+  }
+  if (m_tokens.empty()) throw Error(m_file + ": the file is empty (no data, only blanks or comments)");
+}
+
+std::size_t TextTokens::line() const {
+  if (m_tokens.empty()) return 0;
+  return m_next < m_tokens.size() ? m_tokens[m_next].line : m_tokens.back().line;
+}
+
+std::string TextTokens::where() const { return m_file + ":" + std::to_string(line()); }
+
+std::string_view TextTokens::peek() const {
+  if (at_end()) return {};
+  const Token& t = m_tokens[m_next];
+  return std::string_view(m_text).substr(t.begin, t.length);
+}
+
+std::string_view TextTokens::next(std::string_view what) {
+  if (at_end()) {
+    throw Error(where() + ": unexpected end of file while reading " + std::string(what),
+                "the file looks truncated; re-export it");
+  }
+  const std::string_view token = peek();
+  ++m_next;
+  return token;
+}
+
+double TextTokens::next_double(std::string_view what) {
+  const std::size_t at = line();
+  const std::string_view token = next(what);
+  double value = 0.0;
+  const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
+  if (ec != std::errc() || end != token.data() + token.size()) {
+    throw Error(m_file + ":" + std::to_string(at) + ": expected a number for " + std::string(what) + ", found '" +
+                std::string(token) + "'");
+  }
+  if (!std::isfinite(value)) {
+    throw Error(m_file + ":" + std::to_string(at) + ": " + std::string(what) + " is not finite ('" +
+                    std::string(token) + "')",
+                "NaN and Inf coordinates cannot be embedded; fix the exporter");
+  }
+  return value;
+}
+
+std::int64_t TextTokens::next_integer(std::string_view what) {
+  const std::size_t at = line();
+  const std::string_view token = next(what);
+  std::int64_t value = 0;
+  const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
+  if (ec != std::errc() || end != token.data() + token.size()) {
+    throw Error(m_file + ":" + std::to_string(at) + ": expected an integer for " + std::string(what) + ", found '" +
+                std::string(token) + "'");
+  }
+  return value;
+}
+
+std::size_t TextTokens::next_count(std::string_view what) {
+  const std::size_t at = line();
+  const std::int64_t value = next_integer(what);
+  if (value < 0) {
+    throw Error(m_file + ":" + std::to_string(at) + ": " + std::string(what) + " is negative (" +
+                std::to_string(value) + ")");
+  }
+  return static_cast<std::size_t>(value);
+}
+
+void TextTokens::skip_rest_of_line() {
+  if (m_next == 0) return;
+  const std::size_t current = m_tokens[m_next - 1].line;
+  while (!at_end() && m_tokens[m_next].line == current) ++m_next;
+}
+
+}  // namespace fissure::formats
