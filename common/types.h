@@ -3,6 +3,7 @@
 /// `float` only on the way to the GPU. Indices are 32-bit everywhere.
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>  // cross products
 #include <cstdint>
 #include <limits>
 

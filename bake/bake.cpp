@@ -1,0 +1,201 @@
+#include "bake/bake.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+
+#include "bake/exact_embedding.h"
+#include "bake/file_hash.h"
+#include "bake/winding_number.h"
+#include "common/barycentric.h"
+#include "common/error.h"
+#include "common/json_writer.h"
+#include "common/log.h"
+#include "formats/bundle_checks.h"
+#include "formats/cage_io.h"
+
+#ifndef FISSURE_VERSION
+#define FISSURE_VERSION "0.0.0"
+#endif
+
+namespace fissure::bake {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+std::string format_point(const Vec3& p) {
+  char buffer[96];
+  std::snprintf(buffer, sizeof buffer, "(%.6g, %.6g, %.6g)", p.x(), p.y(), p.z());
+  return buffer;
+}
+
+/// Throws when some triangle's area is not fully inside the cage, saying how much and where.
+void require_coverage(const SurfaceMesh& mesh, const TetMesh& cage, const formats::Embedding& embedding,
+                      double tolerance, const std::string& mesh_name, const std::string& cage_name) {
+  const std::vector<double> covered = formats::covered_area(mesh, cage, embedding);
+  std::size_t outside_triangles = 0;
+  double outside_area = 0.0, total_area = 0.0;
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  TriangleIndex first = kInvalidIndex;
+  for (Index t = 0; t < mesh.triangle_count(); ++t) {
+    const double area = triangle_area(mesh, t);
+    total_area += area;
+    const double missing = area - covered[t];
+    if (area > 0.0 && missing > tolerance * area) {
+      ++outside_triangles;
+      outside_area += missing;
+      if (first == kInvalidIndex) first = t;
+      for (int k = 0; k < 3; ++k) {
+        lo = lo.cwiseMin(mesh.positions.col(mesh.triangles(k, t)));
+        hi = hi.cwiseMax(mesh.positions.col(mesh.triangles(k, t)));
+      }
+    }
+  }
+  if (outside_triangles == 0) return;
+  char share[32];
+  std::snprintf(share, sizeof share, "%.3g%%", 100.0 * outside_area / std::max(total_area, 1e-300));
+  char area_text[32];
+  std::snprintf(area_text, sizeof area_text, "%.3g", outside_area);
+  const Vec3 centroid = (mesh.positions.col(mesh.triangles(0, first)) + mesh.positions.col(mesh.triangles(1, first)) +
+                         mesh.positions.col(mesh.triangles(2, first))) / 3.0;
+  throw Error(cage_name + " does not cover " + mesh_name + ": " + std::to_string(outside_triangles) +
+                  " triangles lie partly or wholly outside it (area " + area_text + " m², " + share +
+                  " of the surface), within the box " + format_point(lo) + " – " + format_point(hi) +
+                  "; first: triangle " + std::to_string(first) + " near " + format_point(centroid),
+              "enlarge the cage so it encloses the whole mesh (check both are in the same units and frame)");
+}
+
+}  // namespace
+
+std::string generator_string() { return std::string(kGeneratorName) + " " + FISSURE_VERSION; }
+
+std::string BakeOptions::to_json() const {
+  JsonWriter j;
+  j.begin_object();
+  j.key("weld").value(import.weld);
+  j.key("winding_accuracy").value(winding_accuracy);
+  j.key("coverage_tolerance").value(coverage_tolerance);
+  j.end_object();
+  return j.str();
+}
+
+formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOptions& options,
+                      const std::string& mesh_name, const std::string& cage_name, BakeStats* stats) {
+  BakeStats local;
+  BakeStats& s = stats ? *stats : local;
+  if (mesh.triangle_count() == 0) throw Error(mesh_name + ": the mesh has no triangles");
+
+  formats::Bundle bundle;
+  bundle.render = mesh;
+  bundle.cage = cage;
+  formats::Embedding& e = bundle.embedding;
+
+  auto start = Clock::now();
+  const SurfaceTopology topology = analyze_topology(mesh);
+  s.boundary_edges = topology.boundary_edges;
+  s.boundary_loops = topology.boundary_loops;
+  s.nonmanifold_edges = topology.nonmanifold_edges;
+  if (!topology.closed()) {
+    log_warning(mesh_name + ": the surface is not closed (" + std::to_string(topology.boundary_edges) +
+                " boundary edges in " + std::to_string(topology.boundary_loops) + " loops, " +
+                std::to_string(topology.nonmanifold_edges) +
+                " non-manifold edges); inside/outside comes from generalized winding numbers");
+  }
+  bundle.faces = build_cage_faces(cage, cage_name);
+  s.faces_s = seconds_since(start);
+
+  start = Clock::now();
+  const TriangleTetPairs pairs = assign_triangles(mesh, cage);
+  s.candidates = pairs.candidates;
+  s.degenerate_triangles = pairs.degenerate_triangles;
+  if (pairs.degenerate_triangles > 0) {
+    log_warning(mesh_name + ": skipped " + std::to_string(pairs.degenerate_triangles) +
+                " degenerate (zero-area) triangles; they draw nothing");
+  }
+  e.instance_triangle = pairs.triangle;
+  e.instance_tet = pairs.tet;
+  e.instance_barycentric.resize(pairs.triangle.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.triangle.size(), 1024), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const auto tet = cage.tets.col(pairs.tet[i]);
+      const TetBarycentricFrame frame(cage.rest_positions.col(tet[0]), cage.rest_positions.col(tet[1]),
+                                      cage.rest_positions.col(tet[2]), cage.rest_positions.col(tet[3]));
+      for (int j = 0; j < 3; ++j) {
+        e.instance_barycentric[i].col(j) = frame.coordinates(mesh.positions.col(mesh.triangles(j, pairs.triangle[i])));
+      }
+    }
+  });
+  s.assign_s = seconds_since(start);
+
+  start = Clock::now();
+  require_coverage(mesh, cage, e, options.coverage_tolerance, mesh_name, cage_name);
+  s.coverage_s = seconds_since(start);
+
+  start = Clock::now();
+  const WindingNumberTree winding(mesh, options.winding_accuracy);
+  e.node_winding.resize(cage.node_count());
+  e.node_inside.resize(cage.node_count());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cage.node_count(), 16), [&](const auto& range) {
+    for (std::size_t n = range.begin(); n != range.end(); ++n) {
+      e.node_winding[n] = winding.winding_number(cage.rest_positions.col(static_cast<Eigen::Index>(n)));
+      e.node_inside[n] = e.node_winding[n] >= 0.5 ? 1 : 0;
+    }
+  });
+  // A tet the surface does not pass through is wholly inside or wholly outside;
+  // its centroid decides which (more robust than any one node on an open surface).
+  std::vector<std::uint8_t> crossed(cage.tet_count(), 0);
+  for (const TetIndex t : e.instance_tet) crossed[t] = 1;
+  e.tet_class.resize(cage.tet_count());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cage.tet_count(), 16), [&](const auto& range) {
+    for (std::size_t t = range.begin(); t != range.end(); ++t) {
+      if (crossed[t]) {
+        e.tet_class[t] = formats::TetClass::Crossing;
+        continue;
+      }
+      Vec3 centroid = Vec3::Zero();
+      for (int k = 0; k < 4; ++k) centroid += cage.rest_positions.col(cage.tets(k, static_cast<Eigen::Index>(t)));
+      e.tet_class[t] = winding.winding_number(centroid / 4.0) >= 0.5 ? formats::TetClass::Inside : formats::TetClass::Outside;
+    }
+  });
+  s.classify_s = seconds_since(start);
+
+  start = Clock::now();
+  FaceContours contours = extract_contours(mesh, cage, bundle.faces, pairs);
+  s.coplanar_pairs = contours.coplanar_pairs;
+  e.contour_offsets = std::move(contours.offsets);
+  e.contour_points = std::move(contours.points);
+  e.contour_triangle = std::move(contours.triangle);
+  s.contours_s = seconds_since(start);
+  return bundle;
+}
+
+formats::Bundle bake_files(const std::filesystem::path& mesh_path, const std::filesystem::path& cage_path,
+                           const BakeOptions& options, BakeStats* stats) {
+  BakeStats local;
+  BakeStats& s = stats ? *stats : local;
+  const auto start = Clock::now();
+  const ImportedMesh imported = import_render_mesh(mesh_path, options.import);
+  const formats::CageFile cage = formats::read_cage(cage_path);
+  s.import_s = seconds_since(start);
+  log_info("read " + mesh_path.filename().string() + ": " + std::to_string(imported.mesh.vertex_count()) +
+           " vertices, " + std::to_string(imported.mesh.triangle_count()) + " triangles; " +
+           cage_path.filename().string() + ": " + std::to_string(cage.mesh.node_count()) + " nodes, " +
+           std::to_string(cage.mesh.tet_count()) + " tets");
+
+  formats::Bundle bundle = embed(imported.mesh, cage.mesh, options, mesh_path.string(), cage_path.string(), &s);
+  bundle.metadata.generator = generator_string();
+  bundle.metadata.bake_options = options.to_json();
+  bundle.metadata.inputs.push_back({"mesh", mesh_path.filename().string(), sha256_hex({mesh_path})});
+  const bool pair = cage.element_path != cage.node_path;
+  bundle.metadata.inputs.push_back(
+      {"cage",
+       pair ? cage.node_path.filename().string() + "+" + cage.element_path.filename().string()
+            : cage.node_path.filename().string(),
+       pair ? sha256_hex({cage.node_path, cage.element_path}) : sha256_hex({cage.node_path})});
+  return bundle;
+}
+
+}  // namespace fissure::bake

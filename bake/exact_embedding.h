@@ -1,0 +1,41 @@
+#pragma once
+/// The exact geometry of the embedding, on CGAL's exact predicates (thesis III.B and
+/// the contour lines of III.C). This header is CGAL-free; exact_embedding.cpp is one of
+/// the few translation units that include CGAL.
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "common/surface_mesh.h"
+#include "common/tet_mesh.h"
+
+namespace fissure::bake {
+
+/// Every (triangle, tet) pair whose closed point sets intersect, sorted by triangle
+/// then tet. Candidates come from CGAL's box intersection (never all pairs); each is
+/// confirmed with CGAL::do_intersect(Triangle_3, Tetrahedron_3) on exact predicates.
+struct TriangleTetPairs {
+  std::vector<TriangleIndex> triangle;
+  std::vector<TetIndex> tet;
+  std::size_t candidates = 0;             ///< box-overlap pairs tested exactly
+  std::size_t degenerate_triangles = 0;   ///< collinear triangles, skipped (they cover no area)
+};
+
+TriangleTetPairs assign_triangles(const SurfaceMesh& mesh, const TetMesh& cage);
+
+/// Exact segments where the surface crosses cage faces, grouped by face (CSR).
+/// Each segment is oriented so that, seen from the side the face normal
+/// (faces.nodes order) points to, the solid lies to the left of the segment
+/// (the side opposite the triangle's normal).
+struct FaceContours {
+  std::vector<std::uint64_t> offsets;                  ///< #faces + 1
+  std::vector<Eigen::Matrix<double, 3, 2>> points;     ///< per segment, end points [m]
+  std::vector<TriangleIndex> triangle;                 ///< per segment
+  std::size_t coplanar_pairs = 0;  ///< triangles lying in a face's plane (no segment: they are the wall)
+};
+
+FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, const CageFaces& faces,
+                              const TriangleTetPairs& pairs);
+
+}  // namespace fissure::bake

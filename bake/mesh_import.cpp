@@ -1,0 +1,132 @@
+#include "bake/mesh_import.h"
+
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <assimp/Importer.hpp>
+#include <vector>
+
+#include "common/error.h"
+#include "common/log.h"
+
+namespace fissure::bake {
+namespace {
+
+/// Removes unused vertices after welding, keeping the first occurrence's attributes.
+void weld_positions(SurfaceMesh& mesh) {
+  const std::vector<Index> representative = position_representatives(mesh.positions);
+  std::vector<Index> remap(mesh.vertex_count(), kInvalidIndex);
+  Index kept = 0;
+  for (Index v = 0; v < mesh.vertex_count(); ++v) {
+    if (representative[v] == v) remap[v] = kept++;
+  }
+  auto compact = [&](auto& matrix) {
+    if (matrix.cols() == 0) return;
+    std::remove_reference_t<decltype(matrix)> out(matrix.rows(), kept);
+    for (Index v = 0; v < mesh.vertex_count(); ++v) {
+      if (remap[v] != kInvalidIndex) out.col(remap[v]) = matrix.col(v);
+    }
+    matrix = std::move(out);
+  };
+  compact(mesh.positions);
+  compact(mesh.normals);
+  compact(mesh.uvs);
+  for (Eigen::Index i = 0; i < mesh.triangles.size(); ++i) {
+    mesh.triangles.data()[i] = remap[representative[mesh.triangles.data()[i]]];
+  }
+}
+
+}  // namespace
+
+ImportedMesh import_render_mesh(const std::filesystem::path& path, const MeshImportOptions& options) {
+  const std::string name = path.string();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw Error(name + ": file not found");
+  if (std::filesystem::is_directory(path, ec)) throw Error(name + ": is a directory, not a mesh file");
+  if (std::filesystem::file_size(path, ec) == 0) throw Error(name + ": the file is empty");
+
+  Assimp::Importer importer;
+  if (!importer.IsExtensionSupported(path.extension().string())) {
+    throw Error(name + ": unknown mesh format '" + path.extension().string() + "'",
+                "use a format assimp reads: .obj, .ply, .stl, .gltf, .glb, .fbx, .dae, .off …");
+  }
+  // Lines and points cannot be embedded: have assimp drop them after sorting by type.
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
+                         aiProcess_SortByPType;
+  const aiScene* scene = importer.ReadFile(name, flags);
+  if (scene == nullptr) {
+    throw Error(name + ": cannot read the mesh: " + std::string(importer.GetErrorString()),
+                "check that the file is complete and in the format its extension says");
+  }
+
+  ImportedMesh result;
+  std::size_t vertex_total = 0, triangle_total = 0;
+  bool all_normals = true, all_uvs = true;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* mesh = scene->mMeshes[m];
+    if ((mesh->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) == 0) continue;
+    ++result.source_meshes;
+    vertex_total += mesh->mNumVertices;
+    triangle_total += mesh->mNumFaces;
+    all_normals = all_normals && mesh->HasNormals();
+    all_uvs = all_uvs && mesh->HasTextureCoords(0);
+  }
+  if (triangle_total == 0) {
+    throw Error(name + ": the file holds no triangles", "export the surface as a triangle or polygon mesh");
+  }
+  if (vertex_total >= kInvalidIndex || triangle_total >= kInvalidIndex) {
+    throw Error(name + ": more than 2^32-2 vertices or triangles");
+  }
+
+  SurfaceMesh& out = result.mesh;
+  out.positions.resize(3, static_cast<Eigen::Index>(vertex_total));
+  out.triangles.resize(3, static_cast<Eigen::Index>(triangle_total));
+  if (all_normals) out.normals.resize(3, static_cast<Eigen::Index>(vertex_total));
+  if (all_uvs) out.uvs.resize(2, static_cast<Eigen::Index>(vertex_total));
+  Index vertex_base = 0;
+  Index triangle = 0;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* mesh = scene->mMeshes[m];
+    if ((mesh->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) == 0) continue;
+    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+      const aiVector3D& p = mesh->mVertices[v];
+      const Vec3 position(p.x, p.y, p.z);
+      if (!position.allFinite()) {
+        throw Error(name + ": vertex " + std::to_string(v) + " of mesh " + std::to_string(m) +
+                        " has a non-finite coordinate (NaN or Inf)",
+                    "fix the exporter; such a vertex cannot be embedded");
+      }
+      out.positions.col(vertex_base + v) = position;
+      if (all_normals) {
+        const aiVector3D& n = mesh->mNormals[v];
+        out.normals.col(vertex_base + v) = Vec3(n.x, n.y, n.z);
+      }
+      if (all_uvs) {
+        const aiVector3D& uv = mesh->mTextureCoords[0][v];
+        out.uvs.col(vertex_base + v) = Vec2(uv.x, uv.y);
+      }
+    }
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices != 3) {
+        ++result.skipped_primitives;
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) out.triangles(k, triangle) = vertex_base + face.mIndices[k];
+      ++triangle;
+    }
+    vertex_base += mesh->mNumVertices;
+  }
+  out.triangles.conservativeResize(3, triangle);
+  if (out.normals.cols() > 0 && !out.normals.allFinite()) out.normals.resize(3, 0);
+
+  if (result.source_meshes > 1) {
+    log_info(name + ": merged " + std::to_string(result.source_meshes) + " meshes into one render mesh");
+  }
+  if (!all_normals) log_debug(name + ": no normals on every mesh; the player will compute them");
+  if (options.weld) weld_positions(out);
+  return result;
+}
+
+}  // namespace fissure::bake

@@ -1,0 +1,110 @@
+#include "bake/winding_number.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <numeric>
+
+namespace fissure::bake {
+namespace {
+constexpr Index kLeafSize = 8;
+}
+
+WindingNumberTree::WindingNumberTree(const SurfaceMesh& mesh, double accuracy) : m_mesh(mesh), m_accuracy(accuracy) {
+  const auto count = static_cast<Index>(mesh.triangle_count());
+  m_order.resize(count);
+  std::iota(m_order.begin(), m_order.end(), Index{0});
+  std::vector<Vec3> centroids(count);
+  for (Index t = 0; t < count; ++t) {
+    centroids[t] = (mesh.positions.col(mesh.triangles(0, t)) + mesh.positions.col(mesh.triangles(1, t)) +
+                    mesh.positions.col(mesh.triangles(2, t))) / 3.0;
+  }
+  m_nodes.reserve(2 * (count / kLeafSize + 1));
+  if (count > 0) build(0, count, centroids);
+}
+
+Index WindingNumberTree::build(Index first, Index count, std::vector<Vec3>& centroids) {
+  const auto id = static_cast<Index>(m_nodes.size());
+  m_nodes.emplace_back();
+  Node node;
+  node.first = first;
+  node.count = count;
+  node.box_min = Vec3::Constant(std::numeric_limits<double>::infinity());
+  node.box_max = -node.box_min;
+  Vec3 weighted = Vec3::Zero();
+  double total_area = 0.0;
+  node.area_normal.setZero();
+  for (Index i = first; i < first + count; ++i) {
+    const Index t = m_order[i];
+    const Vec3 a = m_mesh.positions.col(m_mesh.triangles(0, t));
+    const Vec3 b = m_mesh.positions.col(m_mesh.triangles(1, t));
+    const Vec3 c = m_mesh.positions.col(m_mesh.triangles(2, t));
+    const Vec3 area_vector = 0.5 * (b - a).cross(c - a);
+    const double area = area_vector.norm();
+    node.area_normal += area_vector;
+    weighted += area * centroids[t];
+    total_area += area;
+    for (const Vec3* p : {&a, &b, &c}) {
+      node.box_min = node.box_min.cwiseMin(*p);
+      node.box_max = node.box_max.cwiseMax(*p);
+    }
+  }
+  node.center = total_area > 0.0 ? Vec3(weighted / total_area) : Vec3(0.5 * (node.box_min + node.box_max));
+  node.radius = std::max((node.box_max - node.center).norm(), (node.box_min - node.center).norm());
+
+  if (count > kLeafSize) {
+    int axis = 0;
+    (node.box_max - node.box_min).maxCoeff(&axis);
+    const Index middle = first + count / 2;
+    std::nth_element(m_order.begin() + first, m_order.begin() + middle, m_order.begin() + first + count,
+                     [&](Index a, Index b) {
+                       return centroids[a][axis] != centroids[b][axis] ? centroids[a][axis] < centroids[b][axis] : a < b;
+                     });
+    node.left = build(first, middle - first, centroids);
+    node.right = build(middle, first + count - middle, centroids);
+  }
+  m_nodes[id] = node;
+  return id;
+}
+
+double WindingNumberTree::solid_angle(Index t, const Vec3& q) const {
+  // Van Oosterom & Strackee (1983): tan(Ω/2) = det[a b c] / (|a||b||c| + (a·b)|c| + (b·c)|a| + (c·a)|b|).
+  const Vec3 a = m_mesh.positions.col(m_mesh.triangles(0, t)) - q;
+  const Vec3 b = m_mesh.positions.col(m_mesh.triangles(1, t)) - q;
+  const Vec3 c = m_mesh.positions.col(m_mesh.triangles(2, t)) - q;
+  const double la = a.norm(), lb = b.norm(), lc = c.norm();
+  const double numerator = a.dot(b.cross(c));
+  const double denominator = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
+  return 2.0 * std::atan2(numerator, denominator);
+}
+
+double WindingNumberTree::winding_number(const Vec3& query) const {
+  if (m_nodes.empty()) return 0.0;
+  double total = 0.0;
+  Index stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = m_nodes[stack[--top]];
+    const Vec3 offset = node.center - query;
+    const double distance = offset.norm();
+    if (distance > m_accuracy * node.radius) {
+      // Far field: the cluster acts as a dipole; Ω ≈ A·(c − q) / |c − q|³.
+      total += node.area_normal.dot(offset) / (distance * distance * distance);
+    } else if (node.left == kInvalidIndex) {
+      for (Index i = node.first; i < node.first + node.count; ++i) total += solid_angle(m_order[i], query);
+    } else {
+      stack[top++] = node.left;
+      stack[top++] = node.right;
+    }
+  }
+  return total / (4.0 * std::numbers::pi);
+}
+
+double WindingNumberTree::winding_number_direct(const Vec3& query) const {
+  double total = 0.0;
+  for (Index t = 0; t < m_mesh.triangle_count(); ++t) total += solid_angle(t, query);
+  return total / (4.0 * std::numbers::pi);
+}
+
+}  // namespace fissure::bake

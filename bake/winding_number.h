@@ -1,0 +1,49 @@
+#pragma once
+/// Generalized winding numbers (Jacobson et al. 2013) of query points with respect to
+/// a triangle soup, evaluated hierarchically (Barill et al. 2018, "Fast winding
+/// numbers for soups and clouds"): exact solid angles near the query, a dipole
+/// approximation for far clusters. For a closed outward-oriented surface the result is
+/// 1 inside and 0 outside; for open or self-intersecting art it degrades gracefully
+/// (about 0.5 across a hole), which is why the bake classifies with w ≥ 0.5 rather
+/// than by ray parity, which fails on the open scan.
+///
+/// Cost: O(M) to build for M triangles, about O(log M) per query, instead of the
+/// O(M) per query of the direct sum — the bake must not grow like nodes × triangles.
+
+#include <vector>
+
+#include "common/surface_mesh.h"
+
+namespace fissure::bake {
+
+class WindingNumberTree {
+ public:
+  /// `accuracy` is Barill's β: a cluster is approximated when the query is farther
+  /// than β times its radius. 2 gives errors well below 0.01 on the shared meshes.
+  explicit WindingNumberTree(const SurfaceMesh& mesh, double accuracy = 2.0);
+
+  [[nodiscard]] double winding_number(const Vec3& query) const;
+
+  /// The exact sum over all triangles, for tests and small inputs.
+  [[nodiscard]] double winding_number_direct(const Vec3& query) const;
+
+ private:
+  struct Node {
+    Vec3 box_min, box_max;
+    Vec3 center;        ///< area-weighted centroid of the cluster
+    Vec3 area_normal;   ///< Σ area · unit normal (the dipole moment)
+    double radius = 0;  ///< farthest triangle vertex from `center`
+    Index first = 0, count = 0;  ///< range in m_order (leaves)
+    Index left = kInvalidIndex, right = kInvalidIndex;
+  };
+
+  Index build(Index first, Index count, std::vector<Vec3>& centroids);
+  [[nodiscard]] double solid_angle(Index triangle, const Vec3& query) const;
+
+  const SurfaceMesh& m_mesh;
+  double m_accuracy;
+  std::vector<Node> m_nodes;
+  std::vector<Index> m_order;  ///< triangles, permuted so each node's are contiguous
+};
+
+}  // namespace fissure::bake
