@@ -9,7 +9,6 @@
 #include "bake/exact_embedding.h"
 #include "bake/file_hash.h"
 #include "bake/winding_number.h"
-#include "common/barycentric.h"
 #include "common/error.h"
 #include "common/json_writer.h"
 #include "common/log.h"
@@ -108,7 +107,7 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
   s.faces_s = seconds_since(start);
 
   start = Clock::now();
-  const TriangleTetPairs pairs = assign_triangles(mesh, cage);
+  const TriangleTetPairs pairs = assign_triangles(mesh, cage, bundle.faces);
   s.candidates = pairs.candidates;
   s.degenerate_triangles = pairs.degenerate_triangles;
   if (pairs.degenerate_triangles > 0) {
@@ -117,17 +116,7 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
   }
   e.instance_triangle = pairs.triangle;
   e.instance_tet = pairs.tet;
-  e.instance_barycentric.resize(pairs.triangle.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.triangle.size(), 1024), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const auto tet = cage.tets.col(pairs.tet[i]);
-      const TetBarycentricFrame frame(cage.rest_positions.col(tet[0]), cage.rest_positions.col(tet[1]),
-                                      cage.rest_positions.col(tet[2]), cage.rest_positions.col(tet[3]));
-      for (int j = 0; j < 3; ++j) {
-        e.instance_barycentric[i].col(j) = frame.coordinates(mesh.positions.col(mesh.triangles(j, pairs.triangle[i])));
-      }
-    }
-  });
+  e.instance_barycentric = pairs.barycentric;
   s.assign_s = seconds_since(start);
 
   start = Clock::now();

@@ -1,6 +1,8 @@
 // One of the few translation units that include CGAL (builds are slow; keep it so).
 #include "bake/exact_embedding.h"
 
+#include "common/barycentric.h"
+
 #include <CGAL/Cartesian_converter.h>
 #include <CGAL/Exact_predicates_exact_constructions_kernel.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -9,6 +11,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <limits>
 #include <numeric>
 
 namespace fissure::bake {
@@ -41,9 +44,48 @@ Epick::Triangle_3 render_triangle(const SurfaceMesh& mesh, TriangleIndex t) {
           to_point(mesh.positions, mesh.triangles(2, t))};
 }
 
+/// Classifies a confirmed (triangle, tet) pair: returns false if the triangle lies in
+/// an interior face of the tet and faces into it (the neighbour behind it keeps it);
+/// otherwise fills the exact-signed barycentric coordinates.
+bool classify_pair(const SurfaceMesh& mesh, const TetMesh& cage, const CageFaces& faces, TriangleIndex tri,
+                   TetIndex tet, Eigen::Matrix<double, 4, 3>& beta) {
+  const auto triangle = render_triangle(mesh, tri);
+  Point nodes[4];
+  for (int i = 0; i < 4; ++i) nodes[i] = to_point(cage.rest_positions, cage.tets(i, tet));
+  // side[f][j]: vertex j relative to face f's plane; the tet's inside is NEGATIVE
+  // for outward-ordered faces.
+  CGAL::Orientation side[4][3];
+  for (int f = 0; f < 4; ++f) {
+    const auto& local = kTetFaceNodes[static_cast<std::size_t>(f)];
+    for (int j = 0; j < 3; ++j) side[f][j] = CGAL::orientation(nodes[local[0]], nodes[local[1]], nodes[local[2]], triangle[j]);
+    const bool in_face_plane = side[f][0] == CGAL::ZERO && side[f][1] == CGAL::ZERO && side[f][2] == CGAL::ZERO;
+    if (in_face_plane && !faces.is_boundary(faces.tet_faces(f, tet)) &&
+        CGAL::orientation(triangle[0], triangle[1], triangle[2], nodes[f]) == CGAL::POSITIVE) {
+      return false;  // the tet is in front of the triangle: outside the solid here
+    }
+  }
+  const TetBarycentricFrame frame(cage.rest_positions.col(cage.tets(0, tet)), cage.rest_positions.col(cage.tets(1, tet)),
+                                  cage.rest_positions.col(cage.tets(2, tet)), cage.rest_positions.col(cage.tets(3, tet)));
+  for (int j = 0; j < 3; ++j) {
+    Vec4 b = frame.coordinates(mesh.positions.col(mesh.triangles(j, tri)));
+    // β_f is the signed distance to face f (local face f is opposite node f), scaled:
+    // positive inside. Make its sign the exact one.
+    for (int f = 0; f < 4; ++f) {
+      if (side[f][j] == CGAL::ZERO) {
+        b[f] = 0.0;
+      } else if ((side[f][j] == CGAL::NEGATIVE) != (b[f] > 0.0)) {
+        b[f] = side[f][j] == CGAL::NEGATIVE ? std::numeric_limits<double>::denorm_min()
+                                            : -std::numeric_limits<double>::denorm_min();
+      }
+    }
+    beta.col(j) = b;
+  }
+  return true;
+}
+
 }  // namespace
 
-TriangleTetPairs assign_triangles(const SurfaceMesh& mesh, const TetMesh& cage) {
+TriangleTetPairs assign_triangles(const SurfaceMesh& mesh, const TetMesh& cage, const CageFaces& faces) {
   TriangleTetPairs result;
   std::vector<Box> triangle_boxes, tet_boxes;
   triangle_boxes.reserve(mesh.triangle_count());
@@ -68,20 +110,25 @@ TriangleTetPairs assign_triangles(const SurfaceMesh& mesh, const TetMesh& cage) 
   std::sort(candidates.begin(), candidates.end());
   result.candidates = candidates.size();
 
-  std::vector<std::uint8_t> hit(candidates.size(), 0);
+  enum : std::uint8_t { kMiss = 0, kHit = 1, kDropped = 2 };
+  std::vector<std::uint8_t> hit(candidates.size(), kMiss);
+  std::vector<Eigen::Matrix<double, 4, 3>> beta(candidates.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates.size(), 256), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const auto [tri, tet] = candidates[i];
       const Epick::Tetrahedron_3 tetrahedron(
           to_point(cage.rest_positions, cage.tets(0, tet)), to_point(cage.rest_positions, cage.tets(1, tet)),
           to_point(cage.rest_positions, cage.tets(2, tet)), to_point(cage.rest_positions, cage.tets(3, tet)));
-      hit[i] = CGAL::do_intersect(render_triangle(mesh, tri), tetrahedron) ? 1 : 0;
+      if (!CGAL::do_intersect(render_triangle(mesh, tri), tetrahedron)) continue;
+      hit[i] = classify_pair(mesh, cage, faces, tri, tet, beta[i]) ? kHit : kDropped;
     }
   });
   for (std::size_t i = 0; i < candidates.size(); ++i) {
-    if (!hit[i]) continue;
+    result.coplanar_dropped += hit[i] == kDropped;
+    if (hit[i] != kHit) continue;
     result.triangle.push_back(candidates[i].first);
     result.tet.push_back(candidates[i].second);
+    result.barycentric.push_back(beta[i]);
   }
   return result;
 }

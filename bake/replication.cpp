@@ -16,7 +16,7 @@ std::vector<ReplicationRow> replication_study(const std::string& mesh_path, cons
   std::vector<ReplicationRow> rows;
   for (const std::string& cage_path : cages) {
     const formats::CageFile cage = formats::read_cage(cage_path);
-    const TriangleTetPairs pairs = assign_triangles(imported.mesh, cage.mesh);
+    const TriangleTetPairs pairs = assign_triangles(imported.mesh, cage.mesh, build_cage_faces(cage.mesh, cage_path));
     formats::Embedding embedding;
     embedding.instance_triangle = pairs.triangle;
     ReplicationRow row;
