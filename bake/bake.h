@@ -15,7 +15,7 @@ inline constexpr const char* kGeneratorName = "fissure-bake";
 struct BakeOptions {
   MeshImportOptions import;
   /// Barill's β for the winding-number tree (see winding_number.h).
-  double winding_accuracy = 2.0;
+  double winding_accuracy = 3.0;
   /// A triangle counts as covered when its instances' clipped areas sum to its area
   /// within this relative tolerance; otherwise the cage does not cover the mesh.
   double coverage_tolerance = 1e-9;

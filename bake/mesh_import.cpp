@@ -4,6 +4,7 @@
 #include <assimp/scene.h>
 
 #include <assimp/Importer.hpp>
+#include <cmath>
 #include <vector>
 
 #include "common/error.h"
@@ -51,26 +52,54 @@ ImportedMesh import_render_mesh(const std::filesystem::path& path, const MeshImp
                 "use a format assimp reads: .obj, .ply, .stl, .gltf, .glb, .fbx, .dae, .off …");
   }
   // Lines and points cannot be embedded: have assimp drop them after sorting by type.
+  // The scene graph is walked here rather than flattened by aiProcess_PreTransformVertices,
+  // which would also merge meshes by material and hide how many the file held.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
-                         aiProcess_SortByPType;
-  const aiScene* scene = importer.ReadFile(name, flags);
+  const aiScene* scene = importer.ReadFile(name, 0);
   if (scene == nullptr) {
     throw Error(name + ": cannot read the mesh: " + std::string(importer.GetErrorString()),
                 "check that the file is complete and in the format its extension says");
   }
-
-  ImportedMesh result;
-  std::size_t vertex_total = 0, triangle_total = 0;
-  bool all_normals = true, all_uvs = true;
+  // Check coordinates before post-processing: assimp's vertex joining silently merges
+  // a NaN vertex into a neighbour, which would hide the broken input.
   for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
     const aiMesh* mesh = scene->mMeshes[m];
-    if ((mesh->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) == 0) continue;
-    ++result.source_meshes;
-    vertex_total += mesh->mNumVertices;
-    triangle_total += mesh->mNumFaces;
-    all_normals = all_normals && mesh->HasNormals();
-    all_uvs = all_uvs && mesh->HasTextureCoords(0);
+    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+      const aiVector3D& p = mesh->mVertices[v];
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+        throw Error(name + ": vertex " + std::to_string(v) + " of mesh " + std::to_string(m) +
+                        " has a non-finite coordinate (NaN or Inf)",
+                    "fix the exporter; such a vertex cannot be embedded");
+      }
+    }
+  }
+  scene = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType);
+  if (scene == nullptr) throw Error(name + ": post-processing failed: " + std::string(importer.GetErrorString()));
+
+  struct Instance {
+    const aiMesh* mesh;
+    aiMatrix4x4 transform;
+  };
+  std::vector<Instance> instances;
+  const auto collect = [&](const auto& self, const aiNode* node, const aiMatrix4x4& parent) -> void {
+    const aiMatrix4x4 transform = parent * node->mTransformation;
+    for (unsigned i = 0; i < node->mNumMeshes; ++i) {
+      const aiMesh* mesh = scene->mMeshes[node->mMeshes[i]];
+      if ((mesh->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) != 0) instances.push_back({mesh, transform});
+    }
+    for (unsigned c = 0; c < node->mNumChildren; ++c) self(self, node->mChildren[c], transform);
+  };
+  if (scene->mRootNode != nullptr) collect(collect, scene->mRootNode, aiMatrix4x4());
+
+  ImportedMesh result;
+  result.source_meshes = instances.size();
+  std::size_t vertex_total = 0, triangle_total = 0;
+  bool all_normals = true, all_uvs = true;
+  for (const Instance& instance : instances) {
+    vertex_total += instance.mesh->mNumVertices;
+    triangle_total += instance.mesh->mNumFaces;
+    all_normals = all_normals && instance.mesh->HasNormals();
+    all_uvs = all_uvs && instance.mesh->HasTextureCoords(0);
   }
   if (triangle_total == 0) {
     throw Error(name + ": the file holds no triangles", "export the surface as a triangle or polygon mesh");
@@ -86,20 +115,21 @@ ImportedMesh import_render_mesh(const std::filesystem::path& path, const MeshImp
   if (all_uvs) out.uvs.resize(2, static_cast<Eigen::Index>(vertex_total));
   Index vertex_base = 0;
   Index triangle = 0;
-  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-    const aiMesh* mesh = scene->mMeshes[m];
-    if ((mesh->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) == 0) continue;
+  for (std::size_t m = 0; m < instances.size(); ++m) {
+    const aiMesh* mesh = instances[m].mesh;
+    const aiMatrix4x4& transform = instances[m].transform;
+    const aiMatrix3x3 normal_transform = aiMatrix3x3(aiMatrix4x4(transform).Inverse().Transpose());
     for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
-      const aiVector3D& p = mesh->mVertices[v];
+      const aiVector3D p = transform * mesh->mVertices[v];
       const Vec3 position(p.x, p.y, p.z);
       if (!position.allFinite()) {
         throw Error(name + ": vertex " + std::to_string(v) + " of mesh " + std::to_string(m) +
-                        " has a non-finite coordinate (NaN or Inf)",
-                    "fix the exporter; such a vertex cannot be embedded");
+                        " overflows when its node transform is applied");
       }
       out.positions.col(vertex_base + v) = position;
       if (all_normals) {
-        const aiVector3D& n = mesh->mNormals[v];
+        aiVector3D n = normal_transform * mesh->mNormals[v];
+        n.NormalizeSafe();
         out.normals.col(vertex_base + v) = Vec3(n.x, n.y, n.z);
       }
       if (all_uvs) {

@@ -171,7 +171,7 @@ CageFile read_tetgen(const std::filesystem::path& node_path, const std::filesyst
       }
       base = index;
     } else if (index != base + static_cast<std::int64_t>(i)) {
-      throw Error(node_path.string() + ":" + std::to_string(nodes.line()) + ": node numbered " + std::to_string(index) +
+      throw Error(nodes.where() + ": node numbered " + std::to_string(index) +
                   " where " + std::to_string(base + static_cast<std::int64_t>(i)) + " was expected (nodes must be consecutive)");
     }
     for (int k = 0; k < 3; ++k) xyz.push_back(nodes.next_double("a node coordinate"));
@@ -196,7 +196,7 @@ CageFile read_tetgen(const std::filesystem::path& node_path, const std::filesyst
       const std::int64_t node = elements.next_integer("a tet node") - base;
       if (k >= 4) continue;
       if (node < 0 || node >= static_cast<std::int64_t>(node_count)) {
-        throw Error(ele_path.string() + ":" + std::to_string(elements.line()) + ": tet " + std::to_string(number) +
+        throw Error(elements.where() + ": tet " + std::to_string(number) +
                         " references node " + std::to_string(node + base) + " but " + node_path.filename().string() +
                         " numbers its " + std::to_string(node_count) + " nodes from " + std::to_string(base),
                     "check that the .node and .ele files belong together");

@@ -50,7 +50,10 @@ std::size_t TextTokens::line() const {
   return m_next < m_tokens.size() ? m_tokens[m_next].line : m_tokens.back().line;
 }
 
-std::string TextTokens::where() const { return m_file + ":" + std::to_string(line()); }
+std::string TextTokens::where() const {
+  const std::size_t last = m_next > 0 ? m_tokens[m_next - 1].line : line();
+  return m_file + ":" + std::to_string(last);
+}
 
 std::string_view TextTokens::peek() const {
   if (at_end()) return {};

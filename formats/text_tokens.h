@@ -31,7 +31,7 @@ class TextTokens {
   /// Skips tokens up to the end of the current line (TetGen's optional columns).
   void skip_rest_of_line();
 
-  /// "file:line: message" for errors found by the caller.
+  /// "file:line" of the token read last, for errors the caller finds in it.
   [[nodiscard]] std::string where() const;
 
  private:

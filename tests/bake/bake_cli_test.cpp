@@ -1,0 +1,130 @@
+// End-to-end tests of the fissure-bake executable: exit codes, messages, outputs.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+
+#include "tests/support/procedural.h"
+#include "tests/support/temp_dir.h"
+
+namespace fissure {
+namespace {
+
+struct Result {
+  int exit_code = -1;
+  std::string output;  ///< stdout and stderr together
+};
+
+Result run(const std::string& arguments) {
+  const std::string command = std::string(FISSURE_BAKE_EXE) + " " + arguments + " 2>&1";
+  Result result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer{};
+  while (std::fgets(buffer.data(), buffer.size(), pipe) != nullptr) result.output += buffer.data();
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+std::string quoted(const std::filesystem::path& path) { return "'" + path.string() + "'"; }
+
+std::string bytes_of(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+const std::filesystem::path kMesh = testing::data_dir() / "meshes" / "bunny-5k.obj";
+const std::filesystem::path kCage = testing::data_dir() / "cages" / "bunny-5k-cage-100.node";
+
+TEST(BakeCli, BakeInspectVerify) {
+  testing::TempDir dir;
+  const auto bundle = dir / "b.h5";
+  const Result bake = run("bake --mesh " + quoted(kMesh) + " --cage " + quoted(kCage) + " -o " + quoted(bundle));
+  ASSERT_EQ(bake.exit_code, 0) << bake.output;
+  EXPECT_NE(bake.output.find("5000 triangles in 100 tets"), std::string::npos) << bake.output;
+
+  const Result verify = run("verify " + quoted(bundle));
+  EXPECT_EQ(verify.exit_code, 0) << verify.output;
+  EXPECT_NE(verify.output.find("all invariants hold"), std::string::npos);
+  EXPECT_EQ(verify.output.find("FAIL"), std::string::npos);
+
+  const Result json = run("inspect --json " + quoted(bundle));
+  EXPECT_EQ(json.exit_code, 0);
+  EXPECT_NE(json.output.find("\"cage_tets\":100"), std::string::npos) << json.output;
+  EXPECT_NE(json.output.find("\"role\":\"mesh\",\"file\":\"bunny-5k.obj\""), std::string::npos) << json.output;
+}
+
+TEST(BakeCli, SameInputsGiveIdenticalBundlesAtAnyThreadCount) {
+  testing::TempDir dir;
+  const std::string inputs = " --mesh " + quoted(kMesh) + " --cage " + quoted(kCage);
+  ASSERT_EQ(run("-q -j 1 bake" + inputs + " -o " + quoted(dir / "a.h5")).exit_code, 0);
+  ASSERT_EQ(run("-q -j 2 bake" + inputs + " -o " + quoted(dir / "b.h5")).exit_code, 0);
+  EXPECT_EQ(bytes_of(dir / "a.h5"), bytes_of(dir / "b.h5"));
+}
+
+TEST(BakeCli, ErrorsExitOneNameTheFileAndWriteNothing) {
+  testing::TempDir dir;
+  const auto out = dir / "out.h5";
+  Result r = run("bake --mesh " + quoted(dir / "missing.obj") + " --cage " + quoted(kCage) + " -o " + quoted(out));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find("error: "), std::string::npos);
+  EXPECT_NE(r.output.find("missing.obj: file not found"), std::string::npos) << r.output;
+
+  // A cage far too small for the bunny.
+  TetMesh small = testing::grid_cage(Vec3(-0.05, 0.05, -0.05), Vec3(0.0, 0.1, 0.0), 2, 2, 2);
+  std::ofstream(dir / "small.node") << "";
+  {
+    std::ofstream node(dir / "small.node"), ele(dir / "small.ele");
+    node.precision(17);
+    node << small.node_count() << " 3 0 0\n";
+    for (Index i = 0; i < small.node_count(); ++i) {
+      node << i << ' ' << small.rest_positions(0, i) << ' ' << small.rest_positions(1, i) << ' ' << small.rest_positions(2, i) << '\n';
+    }
+    ele << small.tet_count() << " 4 0\n";
+    for (Index t = 0; t < small.tet_count(); ++t) {
+      ele << t << ' ' << small.tets(0, t) << ' ' << small.tets(1, t) << ' ' << small.tets(2, t) << ' ' << small.tets(3, t) << '\n';
+    }
+  }
+  r = run("bake --mesh " + quoted(kMesh) + " --cage " + quoted(dir / "small.node") + " -o " + quoted(out));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find("does not cover"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("hint: enlarge the cage"), std::string::npos) << r.output;
+
+  EXPECT_FALSE(std::filesystem::exists(out));
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
+    EXPECT_EQ(entry.path().string().find(".tmp"), std::string::npos) << entry.path();
+  }
+}
+
+TEST(BakeCli, VerifyFailsOnACorruptBundle) {
+  testing::TempDir dir;
+  const Result r = run("verify " + quoted(dir.write("junk.h5", "not hdf5")));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find("not an HDF5 file"), std::string::npos) << r.output;
+}
+
+TEST(BakeCli, UsageErrorsAndHelp) {
+  EXPECT_NE(run("").exit_code, 0);
+  const Result help = run("--help");
+  EXPECT_EQ(help.exit_code, 0);
+  for (const char* command : {"bake", "inspect", "verify", "replication"}) {
+    EXPECT_NE(help.output.find(command), std::string::npos) << help.output;
+  }
+  const Result missing = run("bake --mesh x.obj");
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_NE(missing.output.find("--cage"), std::string::npos) << missing.output;
+}
+
+TEST(BakeCli, ReplicationTableCountsEveryTriangle) {
+  const Result r = run("replication " + quoted(kMesh) + " --cages " + quoted(kCage) + " " +
+                       quoted(testing::data_dir() / "cages" / "bunny-5k-cage-10.node") + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("\"cage\":\"bunny-5k-cage-100.node\",\"tets\":100"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"cage\":\"bunny-5k-cage-10.node\",\"tets\":10"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace fissure
