@@ -25,6 +25,13 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
+/// "name: detail (0.123 s)" at Info level, so long bakes show progress stage by stage.
+void log_stage(const char* name, const std::string& detail, double seconds) {
+  char timing[32];
+  std::snprintf(timing, sizeof timing, " (%.3f s)", seconds);
+  log_info(std::string("  ") + name + ": " + detail + timing);
+}
+
 std::string format_point(const Vec3& p) {
   char buffer[96];
   std::snprintf(buffer, sizeof buffer, "(%.6g, %.6g, %.6g)", p.x(), p.y(), p.z());
@@ -118,10 +125,14 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
   e.instance_tet = pairs.tet;
   e.instance_barycentric = pairs.barycentric;
   s.assign_s = seconds_since(start);
+  log_stage("assign", std::to_string(e.instance_count()) + " instances from " + std::to_string(pairs.candidates) +
+                          " box-overlap candidates",
+            s.assign_s);
 
   start = Clock::now();
   require_coverage(mesh, cage, e, options.coverage_tolerance, mesh_name, cage_name);
   s.coverage_s = seconds_since(start);
+  log_stage("coverage", "every triangle's area is inside the cage", s.coverage_s);
 
   start = Clock::now();
   const WindingNumberTree winding(mesh, options.winding_accuracy);
@@ -150,6 +161,16 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
     }
   });
   s.classify_s = seconds_since(start);
+  {
+    std::size_t inside_nodes = 0, by_class[3] = {0, 0, 0};
+    for (const auto flag : e.node_inside) inside_nodes += flag;
+    for (const auto cls : e.tet_class) ++by_class[static_cast<int>(cls)];
+    log_stage("classify",
+              std::to_string(inside_nodes) + " of " + std::to_string(cage.node_count()) + " nodes inside; tets: " +
+                  std::to_string(by_class[2]) + " crossing, " + std::to_string(by_class[1]) + " inside, " +
+                  std::to_string(by_class[0]) + " outside",
+              s.classify_s);
+  }
 
   start = Clock::now();
   FaceContours contours = extract_contours(mesh, cage, bundle.faces, pairs);
@@ -158,6 +179,7 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
   e.contour_points = std::move(contours.points);
   e.contour_triangle = std::move(contours.triangle);
   s.contours_s = seconds_since(start);
+  log_stage("contours", std::to_string(e.segment_count()) + " segments on the cage faces", s.contours_s);
   return bundle;
 }
 

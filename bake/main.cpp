@@ -19,16 +19,12 @@ namespace {
 using namespace fissure;
 
 int run_bake(const std::string& mesh, const std::string& cage, const std::string& output, const bake::BakeOptions& options) {
-  const StageTimer total("bake " + output);
-  bake::BakeStats stats;
-  const formats::Bundle bundle = bake::bake_files(mesh, cage, options, &stats);
+  const StageTimer total("bake total");
+  const formats::Bundle bundle = bake::bake_files(mesh, cage, options);
   formats::write_bundle(output, bundle);
   const auto& e = bundle.embedding;
   std::printf("%s: %zu triangles in %zu tets -> %zu instances, %zu contour segments\n", output.c_str(),
               bundle.render.triangle_count(), bundle.cage.tet_count(), e.instance_count(), e.segment_count());
-  log_info("stages: read " + std::to_string(stats.import_s) + " s, assign " + std::to_string(stats.assign_s) +
-           " s, coverage " + std::to_string(stats.coverage_s) + " s, classify " + std::to_string(stats.classify_s) +
-           " s, contours " + std::to_string(stats.contours_s) + " s");
   return 0;
 }
 

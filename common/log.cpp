@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdio>
+#include <exception>
 
 namespace fissure {
 namespace {
@@ -22,11 +23,14 @@ void log_warning(std::string_view message) { emit(LogLevel::Warning, "warning: "
 void log_debug(std::string_view message) { emit(LogLevel::Debug, "debug: ", message); }
 
 StageTimer::StageTimer(std::string name)
-    : m_name(std::move(name)), m_start(std::chrono::steady_clock::now()) {
+    : m_name(std::move(name)),
+      m_start(std::chrono::steady_clock::now()),
+      m_exceptions_at_start(std::uncaught_exceptions()) {
   log_debug(m_name + ": started");
 }
 
 StageTimer::~StageTimer() {
+  if (std::uncaught_exceptions() > m_exceptions_at_start) return;
   char buffer[64];
   std::snprintf(buffer, sizeof buffer, ": %.3f s", elapsed_s());
   log_info(m_name + buffer);

@@ -19,7 +19,8 @@ void log_info(std::string_view message);
 void log_warning(std::string_view message);
 void log_debug(std::string_view message);
 
-/// Times a named stage and logs "stage: done in X s" at Info level when it ends.
+/// Times a named stage and logs "stage: X s" at Info level when it ends normally
+/// (not while an exception unwinds: a failed stage has no time worth reporting).
 class StageTimer {
  public:
   explicit StageTimer(std::string name);
@@ -33,6 +34,7 @@ class StageTimer {
  private:
   std::string m_name;
   std::chrono::steady_clock::time_point m_start;
+  int m_exceptions_at_start;
 };
 
 }  // namespace fissure
