@@ -38,7 +38,7 @@ std::string format_point(const Vec3& p) {
   return buffer;
 }
 
-/// Throws when some triangle's area is not fully inside the cage, saying how much and where.
+/// Throws when some triangle's area is not covered exactly once by the cage, saying how much and where.
 void require_coverage(const SurfaceMesh& mesh, const TetMesh& cage, const formats::Embedding& embedding,
                       double tolerance, const std::string& mesh_name, const std::string& cage_name) {
   const std::vector<double> covered = formats::covered_area(mesh, cage, embedding);
@@ -49,8 +49,10 @@ void require_coverage(const SurfaceMesh& mesh, const TetMesh& cage, const format
   for (Index t = 0; t < mesh.triangle_count(); ++t) {
     const double area = triangle_area(mesh, t);
     total_area += area;
-    const double missing = area - covered[t];
-    if (area > 0.0 && missing > tolerance * area) {
+    // Both directions: too little means the cage misses surface; too much means
+    // overlapping tets (they count the same surface twice).
+    const double missing = std::abs(area - covered[t]);
+    if (!is_degenerate(mesh, t) && missing > tolerance * area) {
       ++outside_triangles;
       outside_area += missing;
       if (first == kInvalidIndex) first = t;
@@ -67,11 +69,12 @@ void require_coverage(const SurfaceMesh& mesh, const TetMesh& cage, const format
   std::snprintf(area_text, sizeof area_text, "%.3g", outside_area);
   const Vec3 centroid = (mesh.positions.col(mesh.triangles(0, first)) + mesh.positions.col(mesh.triangles(1, first)) +
                          mesh.positions.col(mesh.triangles(2, first))) / 3.0;
-  throw Error(cage_name + " does not cover " + mesh_name + ": " + std::to_string(outside_triangles) +
-                  " triangles lie partly or wholly outside it (area " + area_text + " m², " + share +
+  throw Error(cage_name + " does not cover " + mesh_name + " exactly once: " + std::to_string(outside_triangles) +
+                  " triangles lie partly or wholly outside it, or inside overlapping tets (area " + area_text + " m², " + share +
                   " of the surface), within the box " + format_point(lo) + " – " + format_point(hi) +
                   "; first: triangle " + std::to_string(first) + " near " + format_point(centroid),
-              "enlarge the cage so it encloses the whole mesh (check both are in the same units and frame)");
+              "enlarge the cage so it encloses the whole mesh (check both are in the same units and frame), and make "
+              "sure its tets do not overlap");
 }
 
 }  // namespace

@@ -76,7 +76,7 @@ bool classify_pair(const SurfaceMesh& mesh, const TetMesh& cage, const CageFaces
     for (int f = 0; f < 4; ++f) {
       if (side[f][j] == CGAL::ZERO) {
         b[f] = 0.0;
-      } else if ((side[f][j] == CGAL::NEGATIVE) != (b[f] > 0.0)) {
+      } else if (side[f][j] == CGAL::NEGATIVE ? !(b[f] > 0.0) : !(b[f] < 0.0)) {
         b[f] = side[f][j] == CGAL::NEGATIVE ? std::numeric_limits<double>::denorm_min()
                                             : -std::numeric_limits<double>::denorm_min();
       }
@@ -154,6 +154,10 @@ struct SegmentResult {
   Eigen::Matrix<double, 3, 2> points;
 };
 
+bool lexicographically_less(const Vec3& a, const Vec3& b) {
+  return std::lexicographical_compare(a.data(), a.data() + 3, b.data(), b.data() + 3);
+}
+
 Vec3 edge_plane_point(Vec3 lo, Vec3 hi, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 n = (b - a).cross(c - a);
   const double d_lo = n.dot(lo - a), d_hi = n.dot(hi - a);
@@ -200,7 +204,8 @@ SegmentResult face_triangle_segment(const SurfaceMesh& mesh, TriangleIndex tri, 
     // T's features against F.
     if (o_t[k] == CGAL::ZERO && coplanar_inside(F[0], F[1], F[2], T[k])) candidates[count++] = t_pos[k];
     if (o_t[k] * o_t[l] < 0 && line_pierces(T[k], T[l], F[0], F[1], F[2])) {
-      const bool in_order = tv[k] < tv[l];
+      // Order by position, not index: across a UV seam the neighbour has other indices.
+      const bool in_order = lexicographically_less(t_pos[k], t_pos[l]);
       candidates[count++] = edge_plane_point(in_order ? t_pos[k] : t_pos[l], in_order ? t_pos[l] : t_pos[k], f_pos[0],
                                              f_pos[1], f_pos[2]);
     }

@@ -21,6 +21,15 @@ using namespace fissure;
 int run_bake(const std::string& mesh, const std::string& cage, const std::string& output, const bake::BakeOptions& options) {
   const StageTimer total("bake total");
   const formats::Bundle bundle = bake::bake_files(mesh, cage, options);
+  // The bake checks its own result before writing: a bundle on disk always verifies.
+  const formats::VerifyReport report = formats::verify_bundle(bundle);
+  if (!report.passed()) {
+    for (const auto& check : report.checks) {
+      if (!check.passed) std::fprintf(stderr, "internal error: %s: %s\n", check.name.c_str(), check.detail.c_str());
+    }
+    std::fprintf(stderr, "hint: this is a bug in fissure-bake; please report it with the inputs. Nothing was written.\n");
+    return 2;
+  }
   formats::write_bundle(output, bundle);
   const auto& e = bundle.embedding;
   std::printf("%s: %zu triangles in %zu tets -> %zu instances, %zu contour segments\n", output.c_str(),
@@ -52,7 +61,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   bool quiet = false, verbose = false;
   int threads = 0;
-  app.add_flag("-q,--quiet", quiet, "Print only errors and the result");
+  app.add_flag("-q,--quiet", quiet, "Print only warnings, errors and the result");
   app.add_flag("-v,--verbose", verbose, "Print debug detail");
   app.add_option("-j,--threads", threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
 

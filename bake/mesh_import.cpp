@@ -119,6 +119,9 @@ ImportedMesh import_render_mesh(const std::filesystem::path& path, const MeshImp
     const aiMesh* mesh = instances[m].mesh;
     const aiMatrix4x4& transform = instances[m].transform;
     const aiMatrix3x3 normal_transform = aiMatrix3x3(aiMatrix4x4(transform).Inverse().Transpose());
+    // A mirroring transform (negative scale, common in glTF and FBX) turns triangles
+    // inside out; swap two corners so they still face outward.
+    const bool mirrored = transform.Determinant() < 0;
     for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
       const aiVector3D p = transform * mesh->mVertices[v];
       const Vec3 position(p.x, p.y, p.z);
@@ -143,7 +146,15 @@ ImportedMesh import_render_mesh(const std::filesystem::path& path, const MeshImp
         ++result.skipped_primitives;
         continue;
       }
-      for (int k = 0; k < 3; ++k) out.triangles(k, triangle) = vertex_base + face.mIndices[k];
+      for (int k = 0; k < 3; ++k) {
+        if (face.mIndices[k] >= mesh->mNumVertices) {
+          throw Error(name + ": face " + std::to_string(f) + " of mesh " + std::to_string(m) + " references vertex " +
+                          std::to_string(face.mIndices[k]) + " but the mesh has " + std::to_string(mesh->mNumVertices),
+                      "the file is corrupt; re-export it");
+        }
+        out.triangles(k, triangle) = vertex_base + face.mIndices[k];
+      }
+      if (mirrored) std::swap(out.triangles(1, triangle), out.triangles(2, triangle));
       ++triangle;
     }
     vertex_base += mesh->mNumVertices;

@@ -58,7 +58,7 @@ Index WindingNumberTree::build(Index first, Index count, std::vector<Vec3>& cent
                                        .cross(m_mesh.positions.col(m_mesh.triangles(2, t)) - a);
     node.second_moment += (centroids[t] - node.center) * area_vector.transpose();
   }
-  node.radius = std::max((node.box_max - node.center).norm(), (node.box_min - node.center).norm());
+  node.radius = (node.box_max - node.center).cwiseMax(node.center - node.box_min).norm();  // farthest box corner
 
   if (count > kLeafSize) {
     int axis = 0;

@@ -14,6 +14,14 @@ double triangle_area(const SurfaceMesh& mesh, TriangleIndex t) {
   return 0.5 * (b - a).cross(c - a).norm();
 }
 
+bool is_degenerate(const SurfaceMesh& mesh, TriangleIndex t) {
+  const Vec3 a = mesh.positions.col(mesh.triangles(0, t));
+  const Vec3 b = mesh.positions.col(mesh.triangles(1, t));
+  const Vec3 c = mesh.positions.col(mesh.triangles(2, t));
+  const double longest = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+  return !(triangle_area(mesh, t) > 1e-12 * longest);
+}
+
 namespace {
 
 Index find_root(std::vector<Index>& parent, Index v) {

@@ -21,6 +21,11 @@ struct SurfaceMesh {
 /// Area of triangle t [m²].
 double triangle_area(const SurfaceMesh& mesh, TriangleIndex t);
 
+/// A triangle with (numerically) no area: area ≤ 1e-12 · (longest edge)². Such
+/// triangles draw nothing; the bake stores no instance for the exactly collinear ones
+/// and coverage checks skip them all.
+bool is_degenerate(const SurfaceMesh& mesh, TriangleIndex t);
+
 /// Topology of the surface seen through vertex positions (vertices at bit-identical
 /// positions count as one, so an importer's split seams do not look like holes).
 struct SurfaceTopology {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -62,8 +63,9 @@ std::size_t validate_and_orient(TetMesh& mesh, const std::string& source, std::s
     }
     const double volume = signed_volume(mesh, t);
     if (!(std::abs(volume) > kDegenerateRelativeVolume * longest * longest * longest)) {
-      throw Error(source + ": " + element_name(t, first_element_number) + " is degenerate (volume " +
-                      std::to_string(volume) + " for longest edge " + std::to_string(longest) + ")",
+      char numbers[96];
+      std::snprintf(numbers, sizeof numbers, "volume %.3g for longest edge %.3g", volume, longest);
+      throw Error(source + ": " + element_name(t, first_element_number) + " is degenerate (" + numbers + ")",
                   "remove or re-mesh the flat tetrahedron; its four nodes are (nearly) coplanar");
     }
     if (volume < 0.0) {
@@ -109,6 +111,22 @@ CageFaces build_cage_faces(const TetMesh& mesh, const std::string& source) {
     }
     const auto f = static_cast<FaceIndex>(nodes.size());
     const Entry& first = entries[i];
+    if (j - i == 2) {
+      // Two tets sharing a face must lie on opposite sides of it: their outward orders
+      // of the face's nodes are then opposite cyclic orders.
+      const Entry& second = entries[i + 1];
+      const auto& fa = kTetFaceNodes[static_cast<std::size_t>(first.local)];
+      const auto& fb = kTetFaceNodes[static_cast<std::size_t>(second.local)];
+      const std::array<Index, 3> a{mesh.tets(fa[0], first.tet), mesh.tets(fa[1], first.tet), mesh.tets(fa[2], first.tet)};
+      const std::array<Index, 3> b{mesh.tets(fb[0], second.tet), mesh.tets(fb[1], second.tet), mesh.tets(fb[2], second.tet)};
+      const bool same_cycle = (a == b) || (a == std::array<Index, 3>{b[1], b[2], b[0]}) ||
+                              (a == std::array<Index, 3>{b[2], b[0], b[1]});
+      if (same_cycle) {
+        throw Error(source + ": tets " + std::to_string(first.tet) + " and " + std::to_string(second.tet) +
+                        " lie on the same side of their shared face, so they overlap",
+                    "the cage is folded or has duplicated tets; re-mesh it");
+      }
+    }
     nodes.push_back({mesh.tets(kTetFaceNodes[first.local][0], first.tet),
                      mesh.tets(kTetFaceNodes[first.local][1], first.tet),
                      mesh.tets(kTetFaceNodes[first.local][2], first.tet)});

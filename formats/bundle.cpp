@@ -202,7 +202,11 @@ void write_bundle(const std::filesystem::path& path, const Bundle& bundle) {
   try {
     {
       const h5::Handle file = h5::create_file(temporary.string());
-      write_contents(file.id(), bundle);
+      try {
+        write_contents(file.id(), bundle);
+      } catch (const Error& e) {
+        throw Error(path.string() + ": " + e.what(), e.hint());
+      }
       if (H5Fflush(file.id(), H5F_SCOPE_GLOBAL) < 0) throw Error(temporary.string() + ": flushing failed");
     }
     std::error_code ec;
@@ -215,7 +219,19 @@ void write_bundle(const std::filesystem::path& path, const Bundle& bundle) {
   }
 }
 
+Bundle read_bundle_unchecked_context(const std::filesystem::path& path);
+
 Bundle read_bundle(const std::filesystem::path& path) {
+  try {
+    return read_bundle_unchecked_context(path);
+  } catch (const Error& e) {
+    // Low-level HDF5 failures do not know the file; name it here.
+    if (std::string_view(e.what()).rfind("HDF5:", 0) == 0) throw Error(path.string() + ": " + e.what(), e.hint());
+    throw;
+  }
+}
+
+Bundle read_bundle_unchecked_context(const std::filesystem::path& path) {
   const std::string name = path.string();
   {
     std::error_code ec;

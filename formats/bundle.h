@@ -41,7 +41,7 @@ struct BundleMetadata {
 enum class TetClass : std::uint8_t {
   Outside = 0,   ///< no surface inside, and outside the solid: never drawn, no mass
   Inside = 1,    ///< no surface inside, and inside the solid: all walls are interior
-  Crossing = 2,  ///< the surface passes through it
+  Crossing = 2,  ///< has instances: the surface passes through or touches it (closed-set contact)
 };
 
 /// Result of the embedding stage (thesis III.A–B, plus the exact contours of III.C).

@@ -11,7 +11,7 @@
 namespace fissure::formats {
 
 struct VerifyTolerances {
-  double barycentric_sum = 1e-12;  ///< |Σβ − 1| per vertex and instance
+  double barycentric_sum = 1e-12;  ///< |Σβ − 1| / max(1, Σ|β|) per vertex and instance
   double reconstruction = 1e-9;    ///< |Σβp − v| relative to the cage's bounding-box diagonal
   double coverage = 1e-9;          ///< |Σ clipped area − area| relative to the triangle's area
   double contour = 1e-9;           ///< contour end point off its face or triangle, relative to the diagonal

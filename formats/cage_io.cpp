@@ -71,7 +71,7 @@ void skip_section(TextTokens& tokens, std::string_view name) {
 bool is_gmsh_tet(std::int64_t type) { return type == 4 || type == 11; }
 
 void read_gmsh_nodes_22(TextTokens& tokens, std::vector<double>& xyz, NodeTagMap& tags) {
-  const std::size_t count = tokens.next_count("the node count");
+  const std::size_t count = tokens.next_record_count("the node count", 4);
   xyz.reserve(3 * count);
   for (std::size_t i = 0; i < count; ++i) {
     tags.add(tokens.next_integer("a node tag"), static_cast<Index>(i), tokens);
@@ -80,7 +80,7 @@ void read_gmsh_nodes_22(TextTokens& tokens, std::vector<double>& xyz, NodeTagMap
 }
 
 void read_gmsh_elements_22(TextTokens& tokens, const NodeTagMap& tags, std::vector<Index>& corners) {
-  const std::size_t count = tokens.next_count("the element count");
+  const std::size_t count = tokens.next_record_count("the element count", 4);
   for (std::size_t i = 0; i < count; ++i) {
     const std::int64_t tag = tokens.next_integer("an element tag");
     const std::int64_t type = tokens.next_integer("an element type");
@@ -95,8 +95,8 @@ void read_gmsh_elements_22(TextTokens& tokens, const NodeTagMap& tags, std::vect
 }
 
 void read_gmsh_nodes_41(TextTokens& tokens, std::vector<double>& xyz, NodeTagMap& tags) {
-  const std::size_t blocks = tokens.next_count("the node block count");
-  const std::size_t total = tokens.next_count("the node count");
+  const std::size_t blocks = tokens.next_record_count("the node block count", 4);
+  const std::size_t total = tokens.next_record_count("the node count", 4);
   tokens.next_integer("the minimum node tag");
   tokens.next_integer("the maximum node tag");
   xyz.reserve(3 * total);
@@ -104,7 +104,7 @@ void read_gmsh_nodes_41(TextTokens& tokens, std::vector<double>& xyz, NodeTagMap
     const std::int64_t entity_dim = tokens.next_integer("a node block's entity dimension");
     tokens.next_integer("a node block's entity tag");
     const std::int64_t parametric = tokens.next_integer("a node block's parametric flag");
-    const std::size_t count = tokens.next_count("a node block's node count");
+    const std::size_t count = tokens.next_record_count("a node block's node count", 4);
     const auto first = static_cast<Index>(xyz.size() / 3);
     for (std::size_t i = 0; i < count; ++i) {
       tags.add(tokens.next_integer("a node tag"), first + static_cast<Index>(i), tokens);
@@ -123,7 +123,7 @@ void read_gmsh_nodes_41(TextTokens& tokens, std::vector<double>& xyz, NodeTagMap
 }
 
 void read_gmsh_elements_41(TextTokens& tokens, const NodeTagMap& tags, std::vector<Index>& corners) {
-  const std::size_t blocks = tokens.next_count("the element block count");
+  const std::size_t blocks = tokens.next_record_count("the element block count", 4);
   tokens.next_count("the element count");
   tokens.next_integer("the minimum element tag");
   tokens.next_integer("the maximum element tag");
@@ -131,7 +131,7 @@ void read_gmsh_elements_41(TextTokens& tokens, const NodeTagMap& tags, std::vect
     tokens.next_integer("an element block's entity dimension");
     tokens.next_integer("an element block's entity tag");
     const std::int64_t type = tokens.next_integer("an element block's element type");
-    const std::size_t count = tokens.next_count("an element block's element count");
+    const std::size_t count = tokens.next_record_count("an element block's element count", 2);
     for (std::size_t i = 0; i < count; ++i) {
       const std::int64_t tag = tokens.next_integer("an element tag");
       if (is_gmsh_tet(type)) {
@@ -160,6 +160,11 @@ CageFile read_tetgen(const std::filesystem::path& node_path, const std::filesyst
   const std::size_t attributes = nodes.next_count("the attribute count");
   const std::size_t markers = nodes.next_count("the boundary marker count");
   if (markers > 1) throw Error(nodes.where() + ": the boundary marker count must be 0 or 1");
+  if (node_count > nodes.remaining() / (4 + attributes + markers)) {
+    throw Error(nodes.where() + ": the header announces " + std::to_string(node_count) + " nodes but the file holds at most " +
+                    std::to_string(nodes.remaining() / (4 + attributes + markers)),
+                "the file is truncated or its header is wrong; re-export it");
+  }
   std::vector<double> xyz;
   xyz.reserve(3 * node_count);
   std::int64_t base = 0;
@@ -186,6 +191,12 @@ CageFile read_tetgen(const std::filesystem::path& node_path, const std::filesyst
     throw Error(elements.where() + ": " + std::to_string(per_tet) + " nodes per tet; TetGen writes 4 or 10");
   }
   const std::size_t tet_attributes = elements.next_count("the attribute count");
+  const std::size_t per_record = 1 + static_cast<std::size_t>(per_tet) + tet_attributes;
+  if (tet_count > elements.remaining() / per_record) {
+    throw Error(elements.where() + ": the header announces " + std::to_string(tet_count) +
+                    " tets but the file holds at most " + std::to_string(elements.remaining() / per_record),
+                "the file is truncated or its header is wrong; re-export it");
+  }
   std::vector<Index> corners;
   corners.reserve(4 * tet_count);
   std::int64_t first_tet_number = 0;
@@ -286,7 +297,7 @@ CageFile read_medit(const std::filesystem::path& path) {
       const std::int64_t dimension = tokens.next_integer("the dimension");
       if (dimension != 3) throw Error(tokens.where() + ": Dimension " + std::to_string(dimension) + "; a cage must be 3D");
     } else if (keyword == "Vertices") {
-      const std::size_t count = tokens.next_count("the vertex count");
+      const std::size_t count = tokens.next_record_count("the vertex count", 4);
       xyz.reserve(3 * count);
       for (std::size_t i = 0; i < count; ++i) {
         for (int k = 0; k < 3; ++k) xyz.push_back(tokens.next_double("a vertex coordinate"));
@@ -295,7 +306,7 @@ CageFile read_medit(const std::filesystem::path& path) {
       have_vertices = true;
     } else if (keyword == "Tetrahedra") {
       if (!have_vertices) throw Error(tokens.where() + ": Tetrahedra comes before Vertices");
-      const std::size_t count = tokens.next_count("the tet count");
+      const std::size_t count = tokens.next_record_count("the tet count", 5);
       const std::size_t vertex_count = xyz.size() / 3;
       for (std::size_t t = 0; t < count; ++t) {
         for (int k = 0; k < 4; ++k) {
@@ -316,7 +327,8 @@ CageFile read_medit(const std::filesystem::path& path) {
         tokens.next("the identifier");
         continue;
       }
-      const std::size_t count = tokens.next_count("the " + keyword + " count");
+      const std::size_t count =
+          tokens.next_record_count("the " + keyword + " count", static_cast<std::size_t>(it->second));
       for (std::size_t i = 0; i < count * static_cast<std::size_t>(it->second); ++i) tokens.next("a " + keyword + " value");
     } else {
       throw Error(tokens.where() + ": unknown MEDIT keyword '" + keyword + "'",

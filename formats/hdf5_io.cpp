@@ -50,7 +50,9 @@ void silence_library_errors() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
 
 Handle create_file(const std::string& path) {
   silence_library_errors();
-  Handle file(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+  // The root group is created with the file: switch its timestamps off too.
+  const Handle fcpl = no_time_tracking(H5P_FILE_CREATE);
+  Handle file(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, fcpl.id(), H5P_DEFAULT), H5Fclose);
   if (!file.valid()) throw Error(path + ": cannot create the file", "check that the directory exists and is writable");
   return file;
 }

@@ -1,5 +1,6 @@
 #include "formats/text_tokens.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -108,6 +109,17 @@ std::size_t TextTokens::next_count(std::string_view what) {
                 std::to_string(value) + ")");
   }
   return static_cast<std::size_t>(value);
+}
+
+std::size_t TextTokens::next_record_count(std::string_view what, std::size_t tokens_per_record) {
+  const std::size_t count = next_count(what);
+  const std::size_t available = remaining() / std::max<std::size_t>(tokens_per_record, 1);
+  if (count > available) {
+    throw Error(where() + ": the header announces " + std::to_string(count) + " for " + std::string(what) +
+                    " but the file holds at most " + std::to_string(available),
+                "the file is truncated or its header is wrong; re-export it");
+  }
+  return count;
 }
 
 void TextTokens::skip_rest_of_line() {

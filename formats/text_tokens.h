@@ -28,6 +28,11 @@ class TextTokens {
   std::int64_t next_integer(std::string_view what);
   /// An integer in [0, limit) after subtracting `base`; the error names `what`.
   std::size_t next_count(std::string_view what);
+  /// A record count from a header, checked against what the file still holds: each
+  /// record takes at least `tokens_per_record` tokens. A bogus or truncated header
+  /// is an error naming the line, never a huge allocation.
+  std::size_t next_record_count(std::string_view what, std::size_t tokens_per_record);
+  [[nodiscard]] std::size_t remaining() const { return m_tokens.size() - m_next; }
   /// Skips tokens up to the end of the current line (TetGen's optional columns).
   void skip_rest_of_line();
 

@@ -9,5 +9,7 @@ if [ "${FISSURE_SKIP_INSTALL:-0}" != "1" ]; then
   bash scripts/install-deps.sh
 fi
 jobs="${FISSURE_JOBS:-$(nproc)}"
+# Let ccache reuse objects across clones in different directories (CI clones afresh).
+export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=1
 cmake --preset "$preset" >/dev/null
 cmake --build --preset "$preset" --parallel "$jobs" "$@"

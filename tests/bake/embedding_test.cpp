@@ -159,6 +159,7 @@ TEST(Embedding, ContoursOfAClosedSurfaceFormChains) {
   const Case c = procedural_cases()[1];
   const Bundle b = embed_quietly(c.mesh, c.cage);
   const auto& e = b.embedding;
+  ASSERT_GT(e.segment_count(), 100u);
   for (FaceIndex f = 0; f < b.faces.face_count(); ++f) {
     std::map<std::tuple<double, double, double>, int> ends;
     for (std::uint64_t s = e.contour_offsets[f]; s < e.contour_offsets[f + 1]; ++s) {

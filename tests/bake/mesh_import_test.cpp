@@ -85,25 +85,43 @@ std::string base64(const std::vector<std::uint8_t>& bytes) {
   return out;
 }
 
-TEST(MeshImport, ReadsGltfWithANodeTransform) {
-  // One triangle, translated by the node's matrix: the importer must apply it.
+/// One triangle (0,0,0), (1,0,0), (0,1,0) (normal +z) in a glTF file whose node has
+/// the given transform properties.
+std::string one_triangle_gltf(const std::string& node_transform) {
   std::vector<std::uint8_t> buffer(36 + 8, 0);
   const float positions[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
   const std::uint16_t indices[3] = {0, 1, 2};
   std::memcpy(buffer.data(), positions, 36);
   std::memcpy(buffer.data() + 36, indices, 6);
-  const std::string gltf =
-      R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],)"
-      R"("nodes":[{"mesh":0,"translation":[0,0,5]}],"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],)"
-      R"("buffers":[{"byteLength":44,"uri":"data:application/octet-stream;base64,)" +
-      base64(buffer) +
-      R"("}],"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],)"
-      R"("accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},)"
-      R"({"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]})";
+  return R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0,)" + node_transform +
+         R"(}],"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],)"
+         R"("buffers":[{"byteLength":44,"uri":"data:application/octet-stream;base64,)" +
+         base64(buffer) +
+         R"("}],"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],)"
+         R"("accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},)"
+         R"({"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]})";
+}
+
+Vec3 triangle_normal(const SurfaceMesh& mesh, Index t) {
+  const Vec3 a = mesh.positions.col(mesh.triangles(0, t));
+  return (mesh.positions.col(mesh.triangles(1, t)) - a).cross(mesh.positions.col(mesh.triangles(2, t)) - a);
+}
+
+TEST(MeshImport, ReadsGltfWithANodeTransform) {
   TempDir dir;
-  const ImportedMesh imported = import_render_mesh(dir.write("t.gltf", gltf));
+  const ImportedMesh imported = import_render_mesh(dir.write("t.gltf", one_triangle_gltf(R"("translation":[0,0,5])")));
   ASSERT_EQ(imported.mesh.triangle_count(), 1u);
   for (Index v = 0; v < 3; ++v) EXPECT_DOUBLE_EQ(imported.mesh.positions(2, v), 5.0);
+  EXPECT_GT(triangle_normal(imported.mesh, 0).z(), 0.0);
+}
+
+TEST(MeshImport, MirroringTransformKeepsTrianglesFacingOutward) {
+  // Scale x by −1: the triangle moves to x ≤ 0 and must keep its +z normal.
+  TempDir dir;
+  const ImportedMesh imported = import_render_mesh(dir.write("m.gltf", one_triangle_gltf(R"("scale":[-1,1,1])")));
+  ASSERT_EQ(imported.mesh.triangle_count(), 1u);
+  EXPECT_LE(imported.mesh.positions.row(0).maxCoeff(), 0.0);
+  EXPECT_GT(triangle_normal(imported.mesh, 0).z(), 0.0);
 }
 
 TEST(MeshImport, BadInputsAreClearErrors) {

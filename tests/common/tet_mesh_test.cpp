@@ -87,6 +87,20 @@ TEST(CageFaces, TetFacesPointBackToTheirTets) {
   }
 }
 
+TEST(CageFaces, TetsOnTheSameSideOfAFaceAreAnError) {
+  // Two positive tets over face (0,1,2), both above it: they overlap.
+  TetMesh mesh = single_tet();
+  mesh.rest_positions.conservativeResize(3, 5);
+  mesh.rest_positions.col(4) << 0.2, 0.2, 0.5;
+  mesh.tets.resize(4, 2);
+  mesh.tets << 0, 0,  //
+      1, 1,           //
+      2, 2,           //
+      3, 4;
+  ASSERT_EQ(validate_and_orient(mesh, "folded"), 0u);
+  EXPECT_THROW(build_cage_faces(mesh, "folded"), Error);
+}
+
 TEST(CageFaces, FaceSharedByThreeTetsIsAnError) {
   TetMesh mesh = single_tet();
   mesh.rest_positions.conservativeResize(3, 6);

@@ -68,7 +68,14 @@ TEST(TetGenReader, TruncatedFileIsAnError) {
   TempDir dir;
   dir.write("c.node", kNode0);
   dir.write("c.ele", "2 4 0\n0 0 1 2 3\n1 1 2\n");
-  expect_error_containing([&] { read_cage(dir / "c.ele"); }, {"c.ele", "unexpected end of file", "truncated"});
+  expect_error_containing([&] { read_cage(dir / "c.ele"); }, {"c.ele:1", "announces 2 tets", "truncated"});
+  // A header far larger than the file: an error, not a huge allocation.
+  dir.write("c.node", "1000000000000 3 0 0\n0 0 0 0\n");
+  expect_error_containing([&] { read_cage(dir / "c.ele"); }, {"c.node:1", "announces 1000000000000 nodes", "truncated"});
+  // A tet cut off mid-record after a plausible header.
+  dir.write("c.node", kNode0);
+  dir.write("c.ele", "1 4 0\n0 0 1 2\n");
+  expect_error_containing([&] { read_cage(dir / "c.ele"); }, {"c.ele", "truncated"});
 }
 
 TEST(TetGenReader, DegenerateTetIsNamed) {
@@ -144,6 +151,21 @@ TEST(MeditReader, ReadsVerticesAndTetrahedraSkippingSurfaces) {
   const CageFile cage = read_cage(path);
   EXPECT_EQ(cage.format, "medit");
   expect_two_tet_cage(cage);
+}
+
+TEST(MeditReader, BogusCountsAreErrorsNotAllocations) {
+  TempDir dir;
+  expect_error_containing([&] { read_cage(dir.write("big.mesh", "MeshVersionFormatted 2\nDimension 3\nVertices\n4611686018427387904\n0 0 0 1\n")); },
+                          {"big.mesh:4", "announces", "truncated"});
+  expect_error_containing([&] { read_cage(dir.write("tri.mesh", "MeshVersionFormatted 2\nTriangles\n999999999999\n1 2 3 0\n")); },
+                          {"tri.mesh:3", "announces"});
+}
+
+TEST(GmshReader, BogusCountsAreErrorsNotAllocations) {
+  TempDir dir;
+  expect_error_containing(
+      [&] { read_cage(dir.write("big.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n99999999999\n1 0 0 0\n$EndNodes\n")); },
+      {"big.msh:5", "announces"});
 }
 
 TEST(MeditReader, OutOfRangeVertexAndUnknownKeyword) {
