@@ -115,9 +115,12 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
   }
   bundle.faces = build_cage_faces(cage, cage_name);
   s.faces_s = seconds_since(start);
+  log_stage("topology", std::to_string(topology.edges) + " surface edges, " + std::to_string(bundle.faces.face_count()) +
+                            " cage faces",
+            s.faces_s);
 
   start = Clock::now();
-  const TriangleTetPairs pairs = assign_triangles(mesh, cage, bundle.faces);
+  TriangleTetPairs pairs = assign_triangles(mesh, cage, bundle.faces);
   s.candidates = pairs.candidates;
   s.degenerate_triangles = pairs.degenerate_triangles;
   if (pairs.degenerate_triangles > 0) {
@@ -126,7 +129,7 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
   }
   e.instance_triangle = pairs.triangle;
   e.instance_tet = pairs.tet;
-  e.instance_barycentric = pairs.barycentric;
+  e.instance_barycentric = std::move(pairs.barycentric);
   s.assign_s = seconds_since(start);
   log_stage("assign", std::to_string(e.instance_count()) + " instances from " + std::to_string(pairs.candidates) +
                           " box-overlap candidates",
@@ -194,10 +197,11 @@ formats::Bundle bake_files(const std::filesystem::path& mesh_path, const std::fi
   const ImportedMesh imported = import_render_mesh(mesh_path, options.import);
   const formats::CageFile cage = formats::read_cage(cage_path);
   s.import_s = seconds_since(start);
-  log_info("read " + mesh_path.filename().string() + ": " + std::to_string(imported.mesh.vertex_count()) +
-           " vertices, " + std::to_string(imported.mesh.triangle_count()) + " triangles; " +
-           cage_path.filename().string() + ": " + std::to_string(cage.mesh.node_count()) + " nodes, " +
-           std::to_string(cage.mesh.tet_count()) + " tets");
+  log_stage("read", mesh_path.filename().string() + ": " + std::to_string(imported.mesh.vertex_count()) + " vertices, " +
+                        std::to_string(imported.mesh.triangle_count()) + " triangles; " + cage_path.filename().string() +
+                        ": " + std::to_string(cage.mesh.node_count()) + " nodes, " + std::to_string(cage.mesh.tet_count()) +
+                        " tets",
+            s.import_s);
 
   formats::Bundle bundle = embed(imported.mesh, cage.mesh, options, mesh_path.string(), cage_path.string(), &s);
   bundle.metadata.generator = generator_string();

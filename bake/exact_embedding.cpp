@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -47,49 +48,87 @@ Epick::Triangle_3 render_triangle(const SurfaceMesh& mesh, TriangleIndex t) {
           to_point(mesh.positions, mesh.triangles(2, t))};
 }
 
-/// Classifies a confirmed (triangle, tet) pair: returns false if the triangle lies in
-/// an interior face of the tet and faces into it (the neighbour behind it keeps it);
-/// otherwise fills the exact-signed barycentric coordinates.
-bool classify_pair(const SurfaceMesh& mesh, const TetMesh& cage, const CageFaces& faces, TriangleIndex tri,
-                   TetIndex tet, Eigen::Matrix<double, 4, 3>& beta) {
-  const auto triangle = render_triangle(mesh, tri);
+/// Exact sides of a triangle's vertices w.r.t. a tet's four face planes:
+/// side[f][j] for face f (opposite node f, outward order) and vertex j. The tet's
+/// inside is NEGATIVE.
+struct PairSides {
   Point nodes[4];
-  for (int i = 0; i < 4; ++i) nodes[i] = to_point(cage.rest_positions, cage.tets(i, tet));
-  // side[f][j]: vertex j relative to face f's plane; the tet's inside is NEGATIVE
-  // for outward-ordered faces.
   CGAL::Orientation side[4][3];
+};
+
+PairSides pair_sides(const Epick::Triangle_3& triangle, const TetMesh& cage, TetIndex tet) {
+  PairSides p;
+  for (int i = 0; i < 4; ++i) p.nodes[i] = to_point(cage.rest_positions, cage.tets(i, tet));
   for (int f = 0; f < 4; ++f) {
     const auto& local = kTetFaceNodes[static_cast<std::size_t>(f)];
-    for (int j = 0; j < 3; ++j) side[f][j] = CGAL::orientation(nodes[local[0]], nodes[local[1]], nodes[local[2]], triangle[j]);
-    const bool in_face_plane = side[f][0] == CGAL::ZERO && side[f][1] == CGAL::ZERO && side[f][2] == CGAL::ZERO;
-    if (in_face_plane && !faces.is_boundary(faces.tet_faces(f, tet)) &&
-        CGAL::orientation(triangle[0], triangle[1], triangle[2], nodes[f]) == CGAL::POSITIVE) {
-      return false;  // the tet is in front of the triangle: outside the solid here
+    for (int j = 0; j < 3; ++j) {
+      p.side[f][j] = CGAL::orientation(p.nodes[local[0]], p.nodes[local[1]], p.nodes[local[2]], triangle[j]);
     }
   }
+  return p;
+}
+
+enum class PairStatus : std::uint8_t { Miss = 0, Hit = 1, Dropped = 2 };
+
+/// Whether the closed triangle and the closed tet intersect, and whether the pair is
+/// kept: a triangle lying in an interior face of the tet and facing into it belongs to
+/// the neighbour behind it.
+PairStatus classify_pair(const SurfaceMesh& mesh, const TetMesh& cage, const CageFaces& faces, TriangleIndex tri,
+                         TetIndex tet) {
+  const auto triangle = render_triangle(mesh, tri);
+  const PairSides p = pair_sides(triangle, cage, tet);
+  bool all_inside = true;
+  for (int f = 0; f < 4; ++f) {
+    const auto* s = p.side[f];
+    // All three vertices strictly outside one face plane: separated (the common case
+    // among box-overlap candidates, decided without CGAL's full intersection test).
+    if (s[0] == CGAL::POSITIVE && s[1] == CGAL::POSITIVE && s[2] == CGAL::POSITIVE) return PairStatus::Miss;
+    all_inside = all_inside && s[0] != CGAL::POSITIVE && s[1] != CGAL::POSITIVE && s[2] != CGAL::POSITIVE;
+  }
+  if (!all_inside) {
+    const Epick::Tetrahedron_3 tetrahedron(p.nodes[0], p.nodes[1], p.nodes[2], p.nodes[3]);
+    if (!CGAL::do_intersect(triangle, tetrahedron)) return PairStatus::Miss;
+  }
+  for (int f = 0; f < 4; ++f) {
+    const auto* s = p.side[f];
+    const bool in_face_plane = s[0] == CGAL::ZERO && s[1] == CGAL::ZERO && s[2] == CGAL::ZERO;
+    if (in_face_plane && !faces.is_boundary(faces.tet_faces(f, tet)) &&
+        CGAL::orientation(triangle[0], triangle[1], triangle[2], p.nodes[f]) == CGAL::POSITIVE) {
+      return PairStatus::Dropped;  // the tet is in front of the triangle: outside the solid here
+    }
+  }
+  return PairStatus::Hit;
+}
+
+/// Barycentric coordinates of the triangle's vertices w.r.t. the tet, with the exact
+/// signs: β_f is the (scaled) signed distance to face f, positive inside; a vertex in
+/// the face's plane gets exactly 0, and rounding never flips a sign.
+Eigen::Matrix<double, 4, 3> exact_signed_barycentric(const SurfaceMesh& mesh, const TetMesh& cage, TriangleIndex tri,
+                                                     TetIndex tet) {
+  const PairSides p = pair_sides(render_triangle(mesh, tri), cage, tet);
   const TetBarycentricFrame frame(cage.rest_positions.col(cage.tets(0, tet)), cage.rest_positions.col(cage.tets(1, tet)),
                                   cage.rest_positions.col(cage.tets(2, tet)), cage.rest_positions.col(cage.tets(3, tet)));
+  Eigen::Matrix<double, 4, 3> beta;
   for (int j = 0; j < 3; ++j) {
     Vec4 b = frame.coordinates(mesh.positions.col(mesh.triangles(j, tri)));
-    // β_f is the signed distance to face f (local face f is opposite node f), scaled:
-    // positive inside. Make its sign the exact one.
     for (int f = 0; f < 4; ++f) {
-      if (side[f][j] == CGAL::ZERO) {
+      if (p.side[f][j] == CGAL::ZERO) {
         b[f] = 0.0;
-      } else if (side[f][j] == CGAL::NEGATIVE ? !(b[f] > 0.0) : !(b[f] < 0.0)) {
-        b[f] = side[f][j] == CGAL::NEGATIVE ? std::numeric_limits<double>::denorm_min()
-                                            : -std::numeric_limits<double>::denorm_min();
+      } else if (p.side[f][j] == CGAL::NEGATIVE ? !(b[f] > 0.0) : !(b[f] < 0.0)) {
+        b[f] = p.side[f][j] == CGAL::NEGATIVE ? std::numeric_limits<double>::denorm_min()
+                                              : -std::numeric_limits<double>::denorm_min();
       }
     }
     beta.col(j) = b;
   }
-  return true;
+  return beta;
 }
 
 }  // namespace
 
 TriangleTetPairs assign_triangles(const SurfaceMesh& mesh, const TetMesh& cage, const CageFaces& faces) {
   TriangleTetPairs result;
+  const auto start = std::chrono::steady_clock::now();
   std::vector<Box> triangle_boxes, tet_boxes;
   triangle_boxes.reserve(mesh.triangle_count());
   std::vector<std::uint8_t> degenerate(mesh.triangle_count(), 0);
@@ -112,27 +151,31 @@ TriangleTetPairs assign_triangles(const SurfaceMesh& mesh, const TetMesh& cage, 
                            [&](const Box& tri, const Box& tet) { candidates.emplace_back(tri.info(), tet.info()); });
   std::sort(candidates.begin(), candidates.end());
   result.candidates = candidates.size();
+  log_debug("assign: " + std::to_string(candidates.size()) + " box-overlap candidates in " +
+            std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()) + " s");
 
-  enum : std::uint8_t { kMiss = 0, kHit = 1, kDropped = 2 };
-  std::vector<std::uint8_t> hit(candidates.size(), kMiss);
-  std::vector<Eigen::Matrix<double, 4, 3>> beta(candidates.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates.size(), 256), [&](const auto& range) {
+  // Pass 1: which candidates intersect (one status byte each, in candidate order,
+  // so the result does not depend on the thread count).
+  std::vector<PairStatus> status(candidates.size(), PairStatus::Miss);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates.size(), 512), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const auto [tri, tet] = candidates[i];
-      const Epick::Tetrahedron_3 tetrahedron(
-          to_point(cage.rest_positions, cage.tets(0, tet)), to_point(cage.rest_positions, cage.tets(1, tet)),
-          to_point(cage.rest_positions, cage.tets(2, tet)), to_point(cage.rest_positions, cage.tets(3, tet)));
-      if (!CGAL::do_intersect(render_triangle(mesh, tri), tetrahedron)) continue;
-      hit[i] = classify_pair(mesh, cage, faces, tri, tet, beta[i]) ? kHit : kDropped;
+      status[i] = classify_pair(mesh, cage, faces, candidates[i].first, candidates[i].second);
     }
   });
   for (std::size_t i = 0; i < candidates.size(); ++i) {
-    result.coplanar_dropped += hit[i] == kDropped;
-    if (hit[i] != kHit) continue;
+    result.coplanar_dropped += status[i] == PairStatus::Dropped;
+    if (status[i] != PairStatus::Hit) continue;
     result.triangle.push_back(candidates[i].first);
     result.tet.push_back(candidates[i].second);
-    result.barycentric.push_back(beta[i]);
   }
+  // Pass 2: barycentric coordinates for the hits only (a 4×3 matrix per candidate
+  // would dominate the bake's peak memory).
+  result.barycentric.resize(result.triangle.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, result.triangle.size(), 512), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      result.barycentric[i] = exact_signed_barycentric(mesh, cage, result.triangle[i], result.tet[i]);
+    }
+  });
   return result;
 }
 

@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
 
+#include <chrono>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -22,7 +23,10 @@ int run_bake(const std::string& mesh, const std::string& cage, const std::string
   const StageTimer total("bake total");
   const formats::Bundle bundle = bake::bake_files(mesh, cage, options);
   // The bake checks its own result before writing: a bundle on disk always verifies.
+  const auto verify_start = std::chrono::steady_clock::now();
   const formats::VerifyReport report = formats::verify_bundle(bundle);
+  log_debug("verify before writing: " +
+            std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - verify_start).count()) + " s");
   if (!report.passed()) {
     for (const auto& check : report.checks) {
       if (!check.passed) std::fprintf(stderr, "internal error: %s: %s\n", check.name.c_str(), check.detail.c_str());
@@ -30,7 +34,10 @@ int run_bake(const std::string& mesh, const std::string& cage, const std::string
     std::fprintf(stderr, "hint: this is a bug in fissure-bake; please report it with the inputs. Nothing was written.\n");
     return 2;
   }
+  const auto write_start = std::chrono::steady_clock::now();
   formats::write_bundle(output, bundle);
+  log_debug("write: " +
+            std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - write_start).count()) + " s");
   const auto& e = bundle.embedding;
   std::printf("%s: %zu triangles in %zu tets -> %zu instances, %zu contour segments\n", output.c_str(),
               bundle.render.triangle_count(), bundle.cage.tet_count(), e.instance_count(), e.segment_count());

@@ -95,7 +95,9 @@ void write_dataset(hid_t parent, const std::string& name, ElementType type, cons
     chunk[0] = std::clamp<hsize_t>(kChunkBytes / (row_elements * element_bytes), 1, shape[0]);
     check(H5Pset_chunk(dcpl.id(), static_cast<int>(chunk.size()), chunk.data()), "chunking " + name);
     check(H5Pset_shuffle(dcpl.id()), "shuffle filter on " + name);
-    check(H5Pset_deflate(dcpl.id(), 4), "deflate filter on " + name);
+    // Level 1: on the bunny-full bundle, 22% faster to write than level 4 for a file
+    // 1.5% larger (doubles compress poorly past the shuffle filter).
+    check(H5Pset_deflate(dcpl.id(), 1), "deflate filter on " + name);
   }
   Handle dataset(H5Dcreate2(parent, name.c_str(), file_type(type), space.id(), H5P_DEFAULT, dcpl.id(), H5P_DEFAULT),
                  H5Dclose);
