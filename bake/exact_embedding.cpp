@@ -145,11 +145,30 @@ TriangleTetPairs assign_triangles(const SurfaceMesh& mesh, const TetMesh& cage, 
   for (Index t = 0; t < cage.tet_count(); ++t) tet_boxes.push_back(make_box<4>(cage.rest_positions, cage.tets.col(t), t));
 
   // Box overlap culls the candidates to those near each other: O((n + k) log n)
-  // instead of the thesis's all-pairs loop.
+  // instead of the thesis's all-pairs loop. Triangles are cut into contiguous chunks
+  // whose box intersections run in parallel (box_intersection_d reorders its ranges,
+  // so each chunk has its own copy of the tet boxes); each chunk's pairs are sorted
+  // and the chunks concatenated in order, so the result is the same for any thread count.
+  constexpr std::size_t kChunk = 1 << 14;
+  const std::size_t chunks = (triangle_boxes.size() + kChunk - 1) / kChunk;
+  std::vector<std::vector<std::pair<TriangleIndex, TetIndex>>> chunk_pairs(chunks);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    std::vector<Box> tris(triangle_boxes.begin() + static_cast<std::ptrdiff_t>(c * kChunk),
+                          triangle_boxes.begin() + static_cast<std::ptrdiff_t>(std::min(triangle_boxes.size(), (c + 1) * kChunk)));
+    std::vector<Box> tets = tet_boxes;
+    auto& pairs = chunk_pairs[c];
+    CGAL::box_intersection_d(tris.begin(), tris.end(), tets.begin(), tets.end(),
+                             [&](const Box& tri, const Box& tet) { pairs.emplace_back(tri.info(), tet.info()); });
+    std::sort(pairs.begin(), pairs.end());
+  });
+  std::size_t total = 0;
+  for (const auto& pairs : chunk_pairs) total += pairs.size();
   std::vector<std::pair<TriangleIndex, TetIndex>> candidates;
-  CGAL::box_intersection_d(triangle_boxes.begin(), triangle_boxes.end(), tet_boxes.begin(), tet_boxes.end(),
-                           [&](const Box& tri, const Box& tet) { candidates.emplace_back(tri.info(), tet.info()); });
-  std::sort(candidates.begin(), candidates.end());
+  candidates.reserve(total);
+  for (auto& pairs : chunk_pairs) {
+    candidates.insert(candidates.end(), pairs.begin(), pairs.end());
+    std::vector<std::pair<TriangleIndex, TetIndex>>().swap(pairs);
+  }
   result.candidates = candidates.size();
   log_debug("assign: " + std::to_string(candidates.size()) + " box-overlap candidates in " +
             std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()) + " s");

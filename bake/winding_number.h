@@ -36,12 +36,15 @@ class WindingNumberTree {
     Vec3 center;        ///< area-weighted centroid of the cluster
     Vec3 area_normal;   ///< Σ aₜ nₜ (the dipole moment)
     Mat3 second_moment; ///< Σ aₜ (cₜ − center) nₜᵀ (the second-order term)
-    double radius = 0;  ///< farthest triangle vertex from `center`
+    double area = 0;    ///< Σ aₜ
+    double radius = 0;  ///< distance from `center` to the farthest corner of the box
     Index first = 0, count = 0;  ///< range in m_order (leaves)
     Index left = kInvalidIndex, right = kInvalidIndex;
   };
 
-  Index build(Index first, Index count, std::vector<Vec3>& centroids);
+  /// Builds the subtree over m_order[first, first + count); moments of inner nodes
+  /// are combined from their children's, so the build is O(M log M) in the splits only.
+  Index build(Index first, Index count, const std::vector<Vec3>& centroids, const std::vector<Vec3>& area_vectors);
   [[nodiscard]] double solid_angle(Index triangle, const Vec3& query) const;
 
   const SurfaceMesh& m_mesh;
