@@ -87,6 +87,21 @@ std::string BakeOptions::to_json() const {
   j.key("weld").value(import.weld);
   j.key("winding_accuracy").value(winding_accuracy);
   j.key("coverage_tolerance").value(coverage_tolerance);
+  j.key("stages").begin_array().value("embedding");
+  if (walls) j.value("walls");
+  if (collision) j.value("collision");
+  j.end_array();
+  if (walls) {
+    j.key("wall_resolution").value(static_cast<std::int64_t>(wall.resolution));
+    j.key("wall_sdf_range_texels").value(wall.sdf_range_texels);
+    j.key("wall_depth_divisor").value(static_cast<std::int64_t>(wall.depth_divisor));
+    j.key("wall_detail_resolution").value(static_cast<std::int64_t>(wall.detail_resolution));
+    j.key("wall_detail_seed").value(static_cast<std::uint64_t>(wall.detail_seed));
+  }
+  if (collision) {
+    j.key("sphere_radius").value(spheres.radius);
+    j.key("sphere_max_halvings").value(spheres.max_halvings);
+  }
   j.end_object();
   return j.str();
 }
@@ -96,6 +111,9 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
   BakeStats local;
   BakeStats& s = stats ? *stats : local;
   if (mesh.triangle_count() == 0) throw Error(mesh_name + ": the mesh has no triangles");
+  // Bad stage options fail before any work.
+  if (options.walls) validate(options.wall);
+  if (options.collision) validate(options.spheres);
 
   formats::Bundle bundle;
   bundle.render = mesh;
@@ -184,8 +202,44 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
   e.contour_offsets = std::move(contours.offsets);
   e.contour_points = std::move(contours.points);
   e.contour_triangle = std::move(contours.triangle);
+  e.contour_feature = std::move(contours.features);
   s.contours_s = seconds_since(start);
   log_stage("contours", std::to_string(e.segment_count()) + " segments on the cage faces", s.contours_s);
+
+  if (!options.walls && !options.collision) return bundle;
+  start = Clock::now();
+  const FaceRegions regions = build_face_regions(bundle);
+  s.regions_s = seconds_since(start);
+  s.inconsistent_faces = regions.inconsistent_faces;
+  if (regions.inconsistent_faces > 0) {
+    log_warning(mesh_name + ": on " + std::to_string(regions.inconsistent_faces) +
+                " cage faces the contours and the node classes disagree (an open or self-intersecting surface); "
+                "their walls follow the contours");
+  }
+  if (options.walls) {
+    start = Clock::now();
+    bundle.walls = bake_walls(bundle, regions, options.wall);
+    s.walls_s = seconds_since(start);
+    log_stage("walls",
+              std::to_string(bundle.walls->tile_count()) + " tiles of " + std::to_string(options.wall.resolution) + "² texels",
+              s.walls_s);
+  }
+  if (options.collision) {
+    start = Clock::now();
+    bundle.collision = bake_collision(bundle, regions, winding, options.spheres, &s.collision);
+    s.collision_s = seconds_since(start);
+    char radius[32];
+    std::snprintf(radius, sizeof radius, "%.4g", bundle.collision->target_radius);
+    log_stage("collision",
+              std::to_string(bundle.collision->sphere_tet.size()) + " spheres (target radius " + radius + ", " +
+                  std::to_string(s.collision.culled) + " surrounded ones culled, " +
+                  std::to_string(s.collision.tets_halved) + " tets halved)",
+              s.collision_s);
+    if (s.collision.tets_short > 0) {
+      log_warning(std::to_string(s.collision.tets_short) + " tets with solid inside have fewer than 3 spheres even at 1/" +
+                  std::to_string(1 << options.spheres.max_halvings) + " of the radius");
+    }
+  }
   return bundle;
 }
 

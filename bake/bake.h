@@ -5,7 +5,9 @@
 #include <filesystem>
 #include <string>
 
+#include "bake/collision_proxies.h"
 #include "bake/mesh_import.h"
+#include "bake/walls.h"
 #include "formats/bundle.h"
 
 namespace fissure::bake {
@@ -20,6 +22,13 @@ struct BakeOptions {
   /// within this relative tolerance; otherwise the cage does not cover the mesh.
   double coverage_tolerance = 1e-9;
 
+  /// Optional stages (the embedding always runs): a scene without fracture needs no
+  /// walls, one without collisions no spheres (`--only` / `--skip`).
+  bool walls = true;
+  bool collision = true;
+  WallOptions wall;
+  SphereOptions spheres;
+
   /// The options that shape the bundle's content, as a JSON object (stored in it).
   [[nodiscard]] std::string to_json() const;
 };
@@ -27,6 +36,9 @@ struct BakeOptions {
 /// What happened during a bake, for logs, benchmarks and tests.
 struct BakeStats {
   double import_s = 0, faces_s = 0, assign_s = 0, classify_s = 0, contours_s = 0, coverage_s = 0;
+  double regions_s = 0, walls_s = 0, collision_s = 0;
+  CollisionStats collision;
+  std::size_t inconsistent_faces = 0;
   std::size_t candidates = 0;
   std::size_t degenerate_triangles = 0;
   std::size_t coplanar_pairs = 0;

@@ -214,7 +214,26 @@ namespace {
 struct SegmentResult {
   enum class Kind { None, Segment, NeedsExact } kind = Kind::None;
   Eigen::Matrix<double, 3, 2> points;
+  std::array<std::uint8_t, 2> features{kContourInterior, kContourInterior};
 };
+
+/// Prefers the more specific of two tags for the same point: vertex > edge > interior.
+std::uint8_t merge_features(std::uint8_t a, std::uint8_t b) {
+  auto rank = [](std::uint8_t f) { return f == kContourInterior ? 0 : (f < 3 ? 1 : 2); };
+  return rank(b) > rank(a) ? b : a;
+}
+
+/// Feature of the face a point lies on, from which of the three edge tests are zero
+/// (edge k runs from face node k to node k+1).
+std::uint8_t feature_from_edges(bool on0, bool on1, bool on2) {
+  if (on0 && on1) return 3 + 1;
+  if (on1 && on2) return 3 + 2;
+  if (on2 && on0) return 3 + 0;
+  if (on0) return 0;
+  if (on1) return 1;
+  if (on2) return 2;
+  return kContourInterior;
+}
 
 bool lexicographically_less(const Vec3& a, const Vec3& b) {
   return std::lexicographical_compare(a.data(), a.data() + 3, b.data(), b.data() + 3);
@@ -227,19 +246,24 @@ Vec3 edge_plane_point(Vec3 lo, Vec3 hi, const Vec3& a, const Vec3& b, const Vec3
   return lo + t * (hi - lo);
 }
 
-/// Whether the line through p, q passes through the closed triangle (a, b, c).
-bool line_pierces(const Point& p, const Point& q, const Point& a, const Point& b, const Point& c) {
+/// Whether the line through p, q passes through the closed triangle (a, b, c); if so,
+/// `feature` says which edge or vertex of the triangle it passes through, if any.
+bool line_pierces(const Point& p, const Point& q, const Point& a, const Point& b, const Point& c,
+                  std::uint8_t* feature = nullptr) {
   const CGAL::Orientation s[3] = {CGAL::orientation(p, q, a, b), CGAL::orientation(p, q, b, c), CGAL::orientation(p, q, c, a)};
   const bool any_positive = s[0] == CGAL::POSITIVE || s[1] == CGAL::POSITIVE || s[2] == CGAL::POSITIVE;
   const bool any_negative = s[0] == CGAL::NEGATIVE || s[1] == CGAL::NEGATIVE || s[2] == CGAL::NEGATIVE;
+  if (feature) *feature = feature_from_edges(s[0] == CGAL::ZERO, s[1] == CGAL::ZERO, s[2] == CGAL::ZERO);
   return !(any_positive && any_negative);
 }
 
-/// Whether x, lying in the plane of (a, b, c), is inside the closed triangle.
-bool coplanar_inside(const Point& a, const Point& b, const Point& c, const Point& x) {
-  return CGAL::coplanar_orientation(a, b, c, x) != CGAL::NEGATIVE &&
-         CGAL::coplanar_orientation(b, c, a, x) != CGAL::NEGATIVE &&
-         CGAL::coplanar_orientation(c, a, b, x) != CGAL::NEGATIVE;
+/// Whether x, lying in the plane of (a, b, c), is inside the closed triangle; if so,
+/// `feature` says which edge or vertex it lies on, if any.
+bool coplanar_inside(const Point& a, const Point& b, const Point& c, const Point& x, std::uint8_t* feature = nullptr) {
+  const CGAL::Orientation s[3] = {CGAL::coplanar_orientation(a, b, c, x), CGAL::coplanar_orientation(b, c, a, x),
+                                  CGAL::coplanar_orientation(c, a, b, x)};
+  if (feature) *feature = feature_from_edges(s[0] == CGAL::COLLINEAR, s[1] == CGAL::COLLINEAR, s[2] == CGAL::COLLINEAR);
+  return s[0] != CGAL::NEGATIVE && s[1] != CGAL::NEGATIVE && s[2] != CGAL::NEGATIVE;
 }
 
 SegmentResult face_triangle_segment(const SurfaceMesh& mesh, TriangleIndex tri, const Matrix3Xd& nodes,
@@ -260,21 +284,31 @@ SegmentResult face_triangle_segment(const SurfaceMesh& mesh, TriangleIndex tri, 
     o_f[k] = CGAL::orientation(T[0], T[1], T[2], F[k]);
   }
   Vec3 candidates[12];
+  std::uint8_t features[12];
   int count = 0;
   for (int k = 0; k < 3; ++k) {
     const int l = (k + 1) % 3;
+    std::uint8_t feature = kContourInterior;
     // T's features against F.
-    if (o_t[k] == CGAL::ZERO && coplanar_inside(F[0], F[1], F[2], T[k])) candidates[count++] = t_pos[k];
-    if (o_t[k] * o_t[l] < 0 && line_pierces(T[k], T[l], F[0], F[1], F[2])) {
+    if (o_t[k] == CGAL::ZERO && coplanar_inside(F[0], F[1], F[2], T[k], &feature)) {
+      features[count] = feature;
+      candidates[count++] = t_pos[k];
+    }
+    if (o_t[k] * o_t[l] < 0 && line_pierces(T[k], T[l], F[0], F[1], F[2], &feature)) {
       // Order by position, not index: across a UV seam the neighbour has other indices.
       const bool in_order = lexicographically_less(t_pos[k], t_pos[l]);
+      features[count] = feature;
       candidates[count++] = edge_plane_point(in_order ? t_pos[k] : t_pos[l], in_order ? t_pos[l] : t_pos[k], f_pos[0],
                                              f_pos[1], f_pos[2]);
     }
     // F's features against T.
-    if (o_f[k] == CGAL::ZERO && coplanar_inside(T[0], T[1], T[2], F[k])) candidates[count++] = f_pos[k];
+    if (o_f[k] == CGAL::ZERO && coplanar_inside(T[0], T[1], T[2], F[k])) {
+      features[count] = static_cast<std::uint8_t>(3 + k);
+      candidates[count++] = f_pos[k];
+    }
     if (o_f[k] * o_f[l] < 0 && line_pierces(F[k], F[l], T[0], T[1], T[2])) {
       const bool in_order = face[k] < face[l];
+      features[count] = static_cast<std::uint8_t>(k);
       candidates[count++] = edge_plane_point(in_order ? f_pos[k] : f_pos[l], in_order ? f_pos[l] : f_pos[k], t_pos[0],
                                              t_pos[1], t_pos[2]);
     }
@@ -284,9 +318,16 @@ SegmentResult face_triangle_segment(const SurfaceMesh& mesh, TriangleIndex tri, 
   const double scale = (f_pos[1] - f_pos[0]).norm() + (f_pos[2] - f_pos[0]).norm();
   int unique = 0;
   for (int k = 0; k < count; ++k) {
-    bool duplicate = false;
-    for (int j = 0; j < unique && !duplicate; ++j) duplicate = (candidates[j] - candidates[k]).norm() <= 1e-12 * scale;
-    if (!duplicate) candidates[unique++] = candidates[k];
+    int duplicate_of = -1;
+    for (int j = 0; j < unique && duplicate_of < 0; ++j) {
+      if ((candidates[j] - candidates[k]).norm() <= 1e-12 * scale) duplicate_of = j;
+    }
+    if (duplicate_of >= 0) {
+      features[duplicate_of] = merge_features(features[duplicate_of], features[k]);
+    } else {
+      features[unique] = features[k];
+      candidates[unique++] = candidates[k];
+    }
   }
   SegmentResult result;
   if (unique < 2) return result;  // touching at a point at most
@@ -305,7 +346,27 @@ SegmentResult face_triangle_segment(const SurfaceMesh& mesh, TriangleIndex tri, 
   result.kind = SegmentResult::Kind::Segment;
   result.points.col(0) = along > 0 ? candidates[0] : candidates[1];
   result.points.col(1) = along > 0 ? candidates[1] : candidates[0];
+  result.features = along > 0 ? std::array<std::uint8_t, 2>{features[0], features[1]}
+                              : std::array<std::uint8_t, 2>{features[1], features[0]};
   return result;
+}
+
+/// Features of the end points of a segment found on the exact path (degenerate
+/// configurations only), by their distance to the face's edges and nodes.
+std::array<std::uint8_t, 2> features_by_distance(const Eigen::Matrix<double, 3, 2>& segment, const Matrix3Xd& nodes,
+                                                 const Eigen::Matrix<Index, 3, 1>& face) {
+  std::array<std::uint8_t, 2> out{};
+  const double scale = (nodes.col(face[1]) - nodes.col(face[0])).norm() + (nodes.col(face[2]) - nodes.col(face[0])).norm();
+  for (int e = 0; e < 2; ++e) {
+    const Vec3 p = segment.col(e);
+    bool on[3];
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 a = nodes.col(face[k]), b = nodes.col(face[(k + 1) % 3]);
+      on[k] = (p - a).cross(b - a).norm() / (b - a).norm() <= 1e-12 * scale;
+    }
+    out[static_cast<std::size_t>(e)] = feature_from_edges(on[0], on[1], on[2]);
+  }
+  return out;
 }
 
 /// The exact-construction path for degenerate pairs: Epeck intersection, oriented
@@ -368,6 +429,7 @@ FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, cons
 
   std::vector<std::uint8_t> has_segment(crossing.size(), 0);
   std::vector<Eigen::Matrix<double, 3, 2>> segments(crossing.size());
+  std::vector<std::array<std::uint8_t, 2>> features(crossing.size());
   std::atomic<std::size_t> exact_fallbacks{0};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, crossing.size(), 256), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
@@ -376,8 +438,10 @@ FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, cons
       if (result.kind == SegmentResult::Kind::NeedsExact) {
         ++exact_fallbacks;
         has_segment[i] = exact_segment(mesh, tri, cage.rest_positions, faces.nodes.col(face), segments[i]);
+        if (has_segment[i]) features[i] = features_by_distance(segments[i], cage.rest_positions, faces.nodes.col(face));
       } else if (result.kind == SegmentResult::Kind::Segment) {
         segments[i] = result.points;
+        features[i] = result.features;
         has_segment[i] = 1;
       }
     }
@@ -393,6 +457,7 @@ FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, cons
     if (!has_segment[i]) continue;
     ++contours.offsets[crossing[i].first + 1];
     contours.points.push_back(segments[i]);
+    contours.features.push_back(features[i]);
     contours.triangle.push_back(crossing[i].second);
   }
   std::partial_sum(contours.offsets.begin(), contours.offsets.end(), contours.offsets.begin());

@@ -4,13 +4,17 @@
 /// the few translation units that include CGAL.
 
 #include <cstddef>
+#include <array>
 #include <cstdint>
 #include <vector>
 
 #include "common/surface_mesh.h"
 #include "common/tet_mesh.h"
+#include "formats/bundle.h"
 
 namespace fissure::bake {
+
+using formats::kContourInterior;
 
 /// Every (triangle, tet) pair whose closed point sets intersect, sorted by triangle
 /// then tet. Candidates come from CGAL's box intersection (never all pairs); each is
@@ -41,6 +45,8 @@ TriangleTetPairs assign_triangles(const SurfaceMesh& mesh, const TetMesh& cage, 
 struct FaceContours {
   std::vector<std::uint64_t> offsets;                  ///< #faces + 1
   std::vector<Eigen::Matrix<double, 3, 2>> points;     ///< per segment, end points [m]
+  /// Per segment end point: where on its face it lies (see formats::kContourInterior).
+  std::vector<std::array<std::uint8_t, 2>> features;
   std::vector<TriangleIndex> triangle;                 ///< per segment
   std::size_t coplanar_pairs = 0;  ///< triangles lying in a face's plane (no segment: they are the wall)
 };

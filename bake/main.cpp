@@ -3,7 +3,10 @@
 #include <tbb/global_control.h>
 
 #include <chrono>
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <optional>
 #include <iostream>
 #include <memory>
 
@@ -81,6 +84,19 @@ int main(int argc, char** argv) {
   bake_cmd->add_option("-o,--output", output, "Bundle to write (.h5); written atomically")->required();
   bake_cmd->add_flag("--weld", options.import.weld,
                      "Merge vertices at identical positions even across normal/UV seams");
+  std::vector<std::string> only, skip;
+  int wall_res = static_cast<int>(options.wall.resolution);
+  double wall_budget_mib = static_cast<double>(options.wall.memory_budget_bytes >> 20);
+  std::optional<double> sphere_radius;
+  bake_cmd->add_option("--only", only, "Run only these optional stages: walls, collision (the embedding always runs)")
+      ->check(CLI::IsMember({"walls", "collision"}));
+  bake_cmd->add_option("--skip", skip, "Skip these optional stages: walls, collision")
+      ->check(CLI::IsMember({"walls", "collision"}));
+  bake_cmd->add_option("--wall-res", wall_res, "Wall tile resolution, texels per side")->capture_default_str();
+  bake_cmd->add_option("--wall-memory-budget", wall_budget_mib, "Largest wall tile data to bake, MiB")
+      ->capture_default_str();
+  bake_cmd->add_option("--sphere-radius", sphere_radius,
+                       "Target collision-sphere radius in mesh units (default: a fifth of the median cage edge)");
   bake_cmd->add_option("--winding-accuracy", options.winding_accuracy,
                        "Fast winding-number accuracy beta (larger = more exact, slower)")
       ->check(CLI::Range(1.0, 100.0))
@@ -115,7 +131,26 @@ int main(int argc, char** argv) {
   }
 
   try {
-    if (*bake_cmd) return run_bake(mesh, cage, output, options);
+    if (*bake_cmd) {
+      if (!only.empty() && !skip.empty()) throw Error("--only and --skip cannot be combined", "use one of them");
+      auto listed = [](const std::vector<std::string>& list, const char* stage) {
+        return std::find(list.begin(), list.end(), stage) != list.end();
+      };
+      options.walls = only.empty() ? !listed(skip, "walls") : listed(only, "walls");
+      options.collision = only.empty() ? !listed(skip, "collision") : listed(only, "collision");
+      if (wall_res <= 0) throw Error("--wall-res " + std::to_string(wall_res) + " must be positive", "use 8 … 256");
+      options.wall.resolution = static_cast<std::uint32_t>(wall_res);
+      if (!(wall_budget_mib > 0)) throw Error("--wall-memory-budget must be positive (MiB)");
+      options.wall.memory_budget_bytes = static_cast<std::size_t>(wall_budget_mib * 1024.0 * 1024.0);
+      if (sphere_radius) {
+        if (!(*sphere_radius > 0.0) || !std::isfinite(*sphere_radius)) {
+          throw Error("--sphere-radius " + std::to_string(*sphere_radius) + " must be a positive length",
+                      "give a radius in the mesh's units, e.g. 0.005, or leave it out for the default");
+        }
+        options.spheres.radius = *sphere_radius;
+      }
+      return run_bake(mesh, cage, output, options);
+    }
     if (*inspect_cmd) return run_inspect(bundle_path, json);
     if (*verify_cmd) return run_verify(bundle_path);
     if (*replication_cmd) {

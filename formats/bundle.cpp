@@ -30,6 +30,38 @@ void write_vector(hid_t group, const std::string& name, ElementType type, const 
   h5::write_dataset(group, name, type, {static_cast<hsize_t>(v.size())}, v.data());
 }
 
+void write_walls(hid_t file, const Walls& w) {
+  const h5::Handle group = h5::create_group(file, "walls");
+  h5::write_attribute(group.id(), "resolution", std::int64_t{w.resolution});
+  h5::write_attribute(group.id(), "sdf_range_texels", w.sdf_range_texels);
+  h5::write_attribute(group.id(), "depth_resolution", std::int64_t{w.depth_resolution});
+  h5::write_attribute(group.id(), "depth_scale", w.depth_scale);
+  h5::write_attribute(group.id(), "detail_resolution", std::int64_t{w.detail_resolution});
+  h5::write_attribute(group.id(), "detail_seed", static_cast<std::int64_t>(w.detail_seed));
+  write_vector(group.id(), "face_class", ElementType::U8, w.face_class);
+  write_vector(group.id(), "face_tile", ElementType::U32, w.face_tile);
+  write_vector(group.id(), "face_inside_area", ElementType::F64, w.face_inside_area);
+  const auto tiles = static_cast<hsize_t>(w.tile_count());
+  h5::write_dataset(group.id(), "sdf", ElementType::U8, {tiles, w.resolution, w.resolution}, w.sdf.data());
+  h5::write_dataset(group.id(), "depth", ElementType::U8, {tiles, w.depth_resolution, w.depth_resolution}, w.depth.data());
+  h5::write_dataset(group.id(), "detail_height", ElementType::U8, {w.detail_resolution, w.detail_resolution},
+                    w.detail_height.data());
+  h5::write_dataset(group.id(), "detail_normal", ElementType::U8, {w.detail_resolution, w.detail_resolution, 3},
+                    w.detail_normal.data());
+}
+
+void write_collision(hid_t file, const Collision& c) {
+  const h5::Handle group = h5::create_group(file, "collision");
+  h5::write_attribute(group.id(), "target_radius", c.target_radius);
+  write_vector(group.id(), "sphere_tet", ElementType::U32, c.sphere_tet);
+  h5::write_dataset(group.id(), "sphere_barycentric", ElementType::F64, {static_cast<hsize_t>(c.sphere_tet.size()), 4},
+                    c.sphere_barycentric.data());
+  write_vector(group.id(), "sphere_radius", ElementType::F64, c.sphere_radius);
+  write_vector(group.id(), "mass_fraction", ElementType::F64, c.mass_fraction);
+  h5::write_dataset(group.id(), "center_of_mass", ElementType::F64, {static_cast<hsize_t>(c.center_of_mass.size()), 4},
+                    c.center_of_mass.data());
+}
+
 void write_contents(hid_t file, const Bundle& b) {
   const BundleMetadata& meta = b.metadata;
   h5::write_attribute(file, "format", std::string(kBundleFormatName));
@@ -78,7 +110,11 @@ void write_contents(hid_t file, const Bundle& b) {
     h5::write_dataset(group.id(), "contour_points", ElementType::F64, {static_cast<hsize_t>(e.segment_count()), 2, 3},
                       e.contour_points.data());
     write_vector(group.id(), "contour_triangle", ElementType::U32, e.contour_triangle);
+    h5::write_dataset(group.id(), "contour_feature", ElementType::U8, {static_cast<hsize_t>(e.segment_count()), 2},
+                      e.contour_feature.data());
   }
+  if (b.walls) write_walls(file, *b.walls);
+  if (b.collision) write_collision(file, *b.collision);
 }
 
 // --- reading --------------------------------------------------------------------
@@ -304,6 +340,70 @@ Bundle read_bundle_unchecked_context(const std::filesystem::path& path) {
     reader.expect_shape(g.id(), where, "contour_points", {2, 3}, segments);
     e.contour_points.resize(segments);
     h5::read_dataset(g.id(), "contour_points", ElementType::F64, e.contour_points.data());
+    reader.expect_shape(g.id(), where, "contour_feature", {2}, segments);
+    e.contour_feature.resize(segments);
+    h5::read_dataset(g.id(), "contour_feature", ElementType::U8, e.contour_feature.data());
+    for (std::size_t s = 0; s < segments; ++s) {
+      for (const std::uint8_t f : e.contour_feature[s]) {
+        if (f > 5 && f != kContourInterior) {
+          throw Error(name + ": " + where + "/contour_feature row " + std::to_string(s) + " holds " + std::to_string(f) +
+                      "; valid values are 0–5 and 255");
+        }
+      }
+    }
+  }
+  if (h5::has_link(file.id(), "walls")) {
+    const h5::Handle g = reader.group("walls");
+    const std::string where = "/walls";
+    Walls w;
+    auto attribute = [&](const char* key) {
+      const auto value = h5::read_double_attribute(g.id(), key);
+      if (!value || !(*value >= 0)) throw Error(name + ": " + where + " lacks a valid '" + key + "' attribute");
+      return *value;
+    };
+    w.resolution = static_cast<std::uint32_t>(attribute("resolution"));
+    w.sdf_range_texels = attribute("sdf_range_texels");
+    w.depth_resolution = static_cast<std::uint32_t>(attribute("depth_resolution"));
+    w.depth_scale = attribute("depth_scale");
+    w.detail_resolution = static_cast<std::uint32_t>(attribute("detail_resolution"));
+    w.detail_seed = static_cast<std::uint64_t>(attribute("detail_seed"));
+    const auto faces = static_cast<hsize_t>(b.faces.face_count());
+    w.face_class = reader.read_vector<std::uint8_t>(g.id(), where, "face_class", ElementType::U8, faces);
+    w.face_tile = reader.read_vector<Index>(g.id(), where, "face_tile", ElementType::U32, faces);
+    w.face_inside_area = reader.read_vector<double>(g.id(), where, "face_inside_area", ElementType::F64, faces);
+    const hsize_t tiles = reader.expect_shape(g.id(), where, "sdf", {w.resolution, w.resolution});
+    reader.check_range(w.face_tile.data(), w.face_tile.size(), 1, tiles, where + "/face_tile", true);
+    w.sdf.resize(tiles * w.resolution * w.resolution);
+    h5::read_dataset(g.id(), "sdf", ElementType::U8, w.sdf.data());
+    reader.expect_shape(g.id(), where, "depth", {w.depth_resolution, w.depth_resolution}, tiles);
+    w.depth.resize(tiles * w.depth_resolution * w.depth_resolution);
+    h5::read_dataset(g.id(), "depth", ElementType::U8, w.depth.data());
+    reader.expect_shape(g.id(), where, "detail_height", {w.detail_resolution}, w.detail_resolution);
+    w.detail_height.resize(static_cast<std::size_t>(w.detail_resolution) * w.detail_resolution);
+    h5::read_dataset(g.id(), "detail_height", ElementType::U8, w.detail_height.data());
+    reader.expect_shape(g.id(), where, "detail_normal", {w.detail_resolution, 3}, w.detail_resolution);
+    w.detail_normal.resize(w.detail_height.size() * 3);
+    h5::read_dataset(g.id(), "detail_normal", ElementType::U8, w.detail_normal.data());
+    b.walls = std::move(w);
+  }
+  if (h5::has_link(file.id(), "collision")) {
+    const h5::Handle g = reader.group("collision");
+    const std::string where = "/collision";
+    Collision c;
+    c.target_radius = h5::read_double_attribute(g.id(), "target_radius").value_or(0.0);
+    c.sphere_tet = reader.read_vector<TetIndex>(g.id(), where, "sphere_tet", ElementType::U32);
+    const hsize_t spheres = c.sphere_tet.size();
+    reader.check_range(c.sphere_tet.data(), spheres, 1, b.cage.tet_count(), where + "/sphere_tet", false);
+    reader.expect_shape(g.id(), where, "sphere_barycentric", {4}, spheres);
+    c.sphere_barycentric.resize(spheres);
+    h5::read_dataset(g.id(), "sphere_barycentric", ElementType::F64, c.sphere_barycentric.data());
+    c.sphere_radius = reader.read_vector<double>(g.id(), where, "sphere_radius", ElementType::F64, spheres);
+    const auto tets = static_cast<hsize_t>(b.cage.tet_count());
+    c.mass_fraction = reader.read_vector<double>(g.id(), where, "mass_fraction", ElementType::F64, tets);
+    reader.expect_shape(g.id(), where, "center_of_mass", {4}, tets);
+    c.center_of_mass.resize(tets);
+    h5::read_dataset(g.id(), "center_of_mass", ElementType::F64, c.center_of_mass.data());
+    b.collision = std::move(c);
   }
   return b;
 }

@@ -6,8 +6,10 @@
 /// Versioning: a reader accepts any minor version of its major version (minor
 /// versions only add optional groups or datasets) and rejects a newer major version.
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,6 +39,10 @@ struct BundleMetadata {
   std::vector<BundleInput> inputs;
 };
 
+/// Where a contour end point lies on its face: 0, 1, 2 = on edge k (from face node k
+/// to node k+1, strictly between them), 3, 4, 5 = at face node k−3, or interior.
+inline constexpr std::uint8_t kContourInterior = 255;
+
 /// How a tet relates to the solid the surface bounds.
 enum class TetClass : std::uint8_t {
   Outside = 0,   ///< no surface inside, and outside the solid: never drawn, no mass
@@ -63,9 +69,48 @@ struct Embedding {
   std::vector<std::uint64_t> contour_offsets;  ///< #faces + 1
   std::vector<Eigen::Matrix<double, 3, 2>> contour_points;  ///< per segment: its two end points [m]
   std::vector<TriangleIndex> contour_triangle;  ///< per segment: the render triangle it comes from
+  std::vector<std::array<std::uint8_t, 2>> contour_feature;  ///< per segment end point: edge, node or interior
 
   [[nodiscard]] std::size_t instance_count() const { return instance_triangle.size(); }
   [[nodiscard]] std::size_t segment_count() const { return contour_triangle.size(); }
+};
+
+/// Wall textures (stage "walls", thesis III.C): one tile per cage face the surface
+/// cuts. Texel (i, j) of a tile sits at face point n0 + u (n1 − n0) + v (n2 − n0) with
+/// u = (i + ½)/res, v = (j + ½)/res and (n0, n1, n2) the face's nodes; only u + v ≤ 1
+/// is on the face, the rest of the square continues the fields so bilinear filtering
+/// is right up to the face's edges.
+struct Walls {
+  std::vector<std::uint8_t> face_class;   ///< #faces: 0 outside, 1 inside (shared material), 2 crossing
+  std::vector<Index> face_tile;           ///< #faces: tile of a crossing face, else kInvalidIndex
+  std::vector<double> face_inside_area;   ///< #faces: area of face ∩ solid [m²] (exact geometry, double rounding)
+  std::uint32_t resolution = 0;           ///< texels per tile side
+  double sdf_range_texels = 0;            ///< signed distance saturates at ± this many texels
+  /// tiles × res × res (row j, column i): 128 + 127·d/range for inside texels, 127 + 128·d/range
+  /// outside (d = signed distance to the contour in texels, clamped): ≥ 128 ⇔ inside,
+  /// exactly, for every texel centre on the face.
+  std::vector<std::uint8_t> sdf;
+  std::uint32_t depth_resolution = 0;     ///< texels per side of the depth tiles
+  double depth_scale = 0;                 ///< metres that 255 stands for
+  std::vector<std::uint8_t> depth;        ///< tiles × dres × dres: distance to the outer surface (0 outside)
+  std::uint32_t detail_resolution = 0;    ///< side of the shared tileable detail maps
+  std::uint64_t detail_seed = 0;
+  std::vector<std::uint8_t> detail_height;  ///< dr × dr, tileable
+  std::vector<std::uint8_t> detail_normal;  ///< dr × dr × 3, tangent-space normal of detail_height, 128 = 0
+
+  [[nodiscard]] std::size_t tile_count() const {
+    return resolution == 0 ? 0 : sdf.size() / (static_cast<std::size_t>(resolution) * resolution);
+  }
+};
+
+/// Collision proxies and mass properties (stage "collision", thesis III.D.2).
+struct Collision {
+  double target_radius = 0;                   ///< the radius asked for [m]
+  std::vector<TetIndex> sphere_tet;           ///< #S
+  std::vector<Vec4> sphere_barycentric;       ///< #S centre, barycentric in its tet
+  std::vector<double> sphere_radius;          ///< #S [m]; target / 2^k after k halvings
+  std::vector<double> mass_fraction;          ///< #T: volume(tet ∩ solid) / volume(tet)
+  std::vector<Vec4> center_of_mass;           ///< #T: centroid of tet ∩ solid, barycentric (the tet's centroid if empty)
 };
 
 struct Bundle {
@@ -74,6 +119,8 @@ struct Bundle {
   TetMesh cage;
   CageFaces faces;
   Embedding embedding;
+  std::optional<Walls> walls;          ///< present when the walls stage ran
+  std::optional<Collision> collision;  ///< present when the collision stage ran
 };
 
 /// Writes atomically: a temporary file beside `path`, renamed over it only when

@@ -152,6 +152,24 @@ void write_attribute(hid_t object, const std::string& name, std::int64_t value) 
   check(H5Awrite(attribute.id(), H5T_NATIVE_INT64, &value), "writing attribute " + name);
 }
 
+void write_attribute(hid_t object, const std::string& name, double value) {
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle attribute(H5Acreate2(object, name.c_str(), H5T_IEEE_F64LE, space.id(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!attribute.valid()) throw Error("HDF5: cannot create attribute " + name);
+  check(H5Awrite(attribute.id(), H5T_NATIVE_DOUBLE, &value), "writing attribute " + name);
+}
+
+std::optional<double> read_double_attribute(hid_t object, const std::string& name) {
+  if (H5Aexists(object, name.c_str()) <= 0) return std::nullopt;
+  Handle attribute(H5Aopen(object, name.c_str(), H5P_DEFAULT), H5Aclose);
+  Handle type(H5Aget_type(attribute.id()), H5Tclose);
+  const H5T_class_t type_class = H5Tget_class(type.id());
+  if (type_class != H5T_FLOAT && type_class != H5T_INTEGER) return std::nullopt;
+  double value = 0.0;
+  if (H5Aread(attribute.id(), H5T_NATIVE_DOUBLE, &value) < 0) return std::nullopt;
+  return value;
+}
+
 std::optional<std::string> read_string_attribute(hid_t object, const std::string& name) {
   if (H5Aexists(object, name.c_str()) <= 0) return std::nullopt;
   Handle attribute(H5Aopen(object, name.c_str(), H5P_DEFAULT), H5Aclose);

@@ -71,6 +71,8 @@ std::uint64_t dataset_storage_bytes(hid_t parent, const std::string& name);
 
 void write_attribute(hid_t object, const std::string& name, const std::string& value);
 void write_attribute(hid_t object, const std::string& name, std::int64_t value);
+void write_attribute(hid_t object, const std::string& name, double value);
+std::optional<double> read_double_attribute(hid_t object, const std::string& name);
 std::optional<std::string> read_string_attribute(hid_t object, const std::string& name);
 std::optional<std::int64_t> read_integer_attribute(hid_t object, const std::string& name);
 

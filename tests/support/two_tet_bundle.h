@@ -56,6 +56,7 @@ inline formats::Bundle two_tet_bundle() {
   segment << a, c;
   e.contour_points.push_back(segment);
   e.contour_triangle.push_back(0);
+  e.contour_feature.push_back({formats::kContourInterior, formats::kContourInterior});
   return b;
 }
 

@@ -1,0 +1,218 @@
+#include "bake/collision_proxies.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <unordered_set>
+
+#include "common/barycentric.h"
+#include "common/error.h"
+
+namespace fissure::bake {
+namespace {
+
+using formats::TetClass;
+
+/// A grid point: refinement level and integer coordinates on that level's grid.
+struct GridKey {
+  std::int32_t level, i, j, k;
+  bool operator==(const GridKey&) const = default;
+  auto operator<=>(const GridKey&) const = default;
+};
+
+struct GridKeyHash {
+  std::size_t operator()(const GridKey& g) const {
+    std::uint64_t h = static_cast<std::uint32_t>(g.level);
+    for (const std::int32_t v : {g.i, g.j, g.k}) h = (h ^ static_cast<std::uint32_t>(v)) * 0x100000001b3ull;
+    return static_cast<std::size_t>(h);
+  }
+};
+
+struct Sample {
+  GridKey key;
+  TetIndex tet;
+};
+
+Eigen::Matrix<double, 3, 4> tet_nodes(const TetMesh& cage, TetIndex t) {
+  Eigen::Matrix<double, 3, 4> nodes;
+  for (int i = 0; i < 4; ++i) nodes.col(i) = cage.rest_positions.col(cage.tets(i, t));
+  return nodes;
+}
+
+/// Adds the signed tetrahedron (p, a, b, c) to the running volume and first moment.
+void accumulate(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, double& volume, Vec3& moment) {
+  const double v = (a - p).dot((b - p).cross(c - p)) / 6.0;
+  volume += v;
+  moment += v * (p + a + b + c) / 4.0;
+}
+
+}  // namespace
+
+void validate(const SphereOptions& o) {
+  if (!std::isfinite(o.radius) || o.radius < 0.0) {
+    throw Error("--sphere-radius " + std::to_string(o.radius) + " is not a positive length",
+                "give a radius in the mesh's units, e.g. 0.005, or leave it out for the default");
+  }
+  if (o.max_halvings < 0 || o.max_halvings > 16) throw Error("the sphere halving count must be 0 … 16");
+}
+
+double default_sphere_radius(const TetMesh& cage) {
+  std::vector<double> lengths;
+  lengths.reserve(cage.tet_count() * 6);
+  for (Index t = 0; t < cage.tet_count(); ++t) {
+    for (int a = 0; a < 4; ++a) {
+      for (int b = a + 1; b < 4; ++b) {
+        lengths.push_back((cage.rest_positions.col(cage.tets(a, t)) - cage.rest_positions.col(cage.tets(b, t))).norm());
+      }
+    }
+  }
+  std::nth_element(lengths.begin(), lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2), lengths.end());
+  return lengths[lengths.size() / 2] / 5.0;
+}
+
+SolidPart solid_part(const formats::Bundle& b, const FaceRegions& regions, TetIndex tet,
+                     const std::vector<std::size_t>& instances) {
+  const auto nodes = tet_nodes(b.cage, tet);
+  const Vec3 p = nodes.rowwise().mean();
+  double volume = 0.0;
+  Vec3 moment = Vec3::Zero();
+  // The surface inside the tet, oriented outward from the solid like the render mesh.
+  for (const std::size_t i : instances) {
+    const std::vector<Vec4> polygon = clip_to_tet(b.embedding.instance_barycentric[i]);
+    for (std::size_t k = 1; k + 1 < polygon.size(); ++k) {
+      accumulate(p, nodes * polygon[0], nodes * polygon[k], nodes * polygon[k + 1], volume, moment);
+    }
+  }
+  // The inside regions of the tet's faces, as fans from the face's first node; their
+  // loops run counter-clockwise about the face normal, which points out of faces.tets(0).
+  for (int local = 0; local < 4; ++local) {
+    const FaceIndex f = b.faces.tet_faces(local, tet);
+    const bool outward = b.faces.tets(0, f) == tet;
+    const Vec3 o = b.cage.rest_positions.col(b.faces.nodes(0, f));
+    for (std::uint64_t k = regions.offsets[f]; k < regions.offsets[f + 1]; ++k) {
+      const Vec3 a = regions.pieces[k].col(0), c = regions.pieces[k].col(1);
+      if (outward) {
+        accumulate(p, o, a, c, volume, moment);
+      } else {
+        accumulate(p, o, c, a, volume, moment);
+      }
+    }
+  }
+  SolidPart part;
+  part.volume = volume;
+  part.centroid = volume > 0.0 ? Vec3(moment / volume) : p;
+  return part;
+}
+
+formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& regions, const WindingNumberTree& winding,
+                                  const SphereOptions& options, CollisionStats* stats) {
+  validate(options);
+  CollisionStats local_stats;
+  CollisionStats& st = stats ? *stats : local_stats;
+  const TetMesh& cage = b.cage;
+  const auto& classes = b.embedding.tet_class;
+  formats::Collision c;
+  c.target_radius = options.radius > 0.0 ? options.radius : default_sphere_radius(cage);
+  const Vec3 origin = cage.rest_positions.rowwise().minCoeff();
+  const double spacing0 = 2.0 * c.target_radius;
+
+  // Instances grouped by tet, for the mass integrals.
+  std::vector<std::vector<std::size_t>> by_tet(cage.tet_count());
+  for (std::size_t i = 0; i < b.embedding.instance_count(); ++i) by_tet[b.embedding.instance_tet[i]].push_back(i);
+
+  // 1. Samples per tet, halving the spacing until a non-empty tet has 3.
+  std::vector<std::vector<GridKey>> per_tet(cage.tet_count());
+  std::vector<std::uint8_t> halved(cage.tet_count(), 0), short_of_three(cage.tet_count(), 0);
+  c.mass_fraction.assign(cage.tet_count(), 0.0);
+  c.center_of_mass.assign(cage.tet_count(), Vec4::Constant(0.25));
+  tbb::parallel_for(std::size_t{0}, cage.tet_count(), [&](std::size_t t) {
+    const auto tet = static_cast<TetIndex>(t);
+    if (classes[t] == TetClass::Outside) return;
+    const auto nodes = tet_nodes(cage, tet);
+    const TetBarycentricFrame frame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
+    const double tet_volume = signed_volume(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
+    if (classes[t] == TetClass::Inside) {
+      c.mass_fraction[t] = 1.0;
+    } else {
+      const SolidPart part = solid_part(b, regions, tet, by_tet[t]);
+      c.mass_fraction[t] = std::clamp(part.volume / tet_volume, 0.0, 1.0);
+      c.center_of_mass[t] = frame.coordinates(part.centroid);
+    }
+    if (c.mass_fraction[t] <= 0.0) return;
+    const Vec3 lo = nodes.rowwise().minCoeff(), hi = nodes.rowwise().maxCoeff();
+    for (int level = 0; level <= options.max_halvings; ++level) {
+      std::vector<GridKey> keys;
+      const double h = spacing0 / std::ldexp(1.0, level);
+      // Grid points sit at origin + (index + ½) h.
+      const Eigen::Vector3i first = ((lo - origin) / h - Vec3::Constant(0.5)).array().ceil().cast<int>();
+      const Eigen::Vector3i last = ((hi - origin) / h - Vec3::Constant(0.5)).array().floor().cast<int>();
+      for (int k = first.z(); k <= last.z(); ++k) {
+        for (int j = first.y(); j <= last.y(); ++j) {
+          for (int i = first.x(); i <= last.x(); ++i) {
+            const Vec3 x = origin + h * (Vec3(i, j, k) + Vec3::Constant(0.5));
+            if (frame.coordinates(x).minCoeff() < 0.0) continue;
+            if (classes[t] == TetClass::Crossing && winding.winding_number(x) < 0.5) continue;
+            keys.push_back({level, i, j, k});
+          }
+        }
+      }
+      const bool enough = keys.size() >= 3;
+      if (enough || level == options.max_halvings) {
+        per_tet[t] = std::move(keys);
+        halved[t] = level > 0;
+        short_of_three[t] = !enough;
+        break;
+      }
+    }
+  });
+
+  // 2. A grid point on a face shared by two tets belongs to the lower-numbered one.
+  std::vector<Sample> samples;
+  for (TetIndex t = 0; t < cage.tet_count(); ++t) {
+    for (const GridKey& key : per_tet[t]) samples.push_back({key, t});
+    st.tets_halved += halved[t];
+    st.tets_short += short_of_three[t];
+  }
+  std::sort(samples.begin(), samples.end(), [](const Sample& x, const Sample& y) {
+    return x.key != y.key ? x.key < y.key : x.tet < y.tet;
+  });
+  samples.erase(std::unique(samples.begin(), samples.end(), [](const Sample& x, const Sample& y) { return x.key == y.key; }),
+                samples.end());
+  st.samples_kept = samples.size();
+
+  // 3. Cull spheres whose 26 neighbours (same level) are all present.
+  std::unordered_set<GridKey, GridKeyHash> present;
+  present.reserve(samples.size() * 2);
+  for (const Sample& s : samples) present.insert(s.key);
+  std::vector<Sample> kept;
+  for (const Sample& s : samples) {
+    bool surrounded = true;
+    for (int dk = -1; dk <= 1 && surrounded; ++dk) {
+      for (int dj = -1; dj <= 1 && surrounded; ++dj) {
+        for (int di = -1; di <= 1 && surrounded; ++di) {
+          if (di == 0 && dj == 0 && dk == 0) continue;
+          surrounded = present.count({s.key.level, s.key.i + di, s.key.j + dj, s.key.k + dk}) > 0;
+        }
+      }
+    }
+    if (!surrounded) kept.push_back(s);
+  }
+  st.culled = samples.size() - kept.size();
+  std::sort(kept.begin(), kept.end(), [](const Sample& x, const Sample& y) {
+    return x.tet != y.tet ? x.tet < y.tet : x.key < y.key;
+  });
+  for (const Sample& s : kept) {
+    const double h = spacing0 / std::ldexp(1.0, s.key.level);
+    const Vec3 x = origin + h * (Vec3(s.key.i, s.key.j, s.key.k) + Vec3::Constant(0.5));
+    const auto nodes = tet_nodes(cage, s.tet);
+    const TetBarycentricFrame frame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
+    c.sphere_tet.push_back(s.tet);
+    c.sphere_barycentric.push_back(frame.coordinates(x));
+    c.sphere_radius.push_back(0.5 * h);
+  }
+  return c;
+}
+
+}  // namespace fissure::bake

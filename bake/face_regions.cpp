@@ -1,0 +1,128 @@
+#include "bake/face_regions.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "bake/exact_predicates.h"
+
+namespace fissure::bake {
+namespace {
+
+struct EdgeCrossing {
+  double t;     ///< position along the edge, 0 at its first node
+  bool after;   ///< the solid is on the edge's far side of this point (toward t = 1)
+};
+
+}  // namespace
+
+FaceRegions build_face_regions(const formats::Bundle& b) {
+  const auto& e = b.embedding;
+  const auto& nodes = b.cage.rest_positions;
+  FaceRegions regions;
+  const std::size_t face_count = b.faces.face_count();
+  regions.face_class.resize(face_count);
+  regions.inside_area.resize(face_count);
+  regions.offsets.assign(face_count + 1, 0);
+  for (FaceIndex f = 0; f < face_count; ++f) {
+    const Vec3 corner[3] = {nodes.col(b.faces.nodes(0, f)), nodes.col(b.faces.nodes(1, f)), nodes.col(b.faces.nodes(2, f))};
+    const Vec3 normal = (corner[1] - corner[0]).cross(corner[2] - corner[0]);
+    const Vec3 unit = normal.normalized();
+    const std::uint64_t first = e.contour_offsets[f], last = e.contour_offsets[f + 1];
+    int inside_nodes = 0;
+    for (int k = 0; k < 3; ++k) inside_nodes += e.node_inside[b.faces.nodes(k, f)];
+
+    std::vector<Eigen::Matrix<double, 3, 2>> pieces;
+    if (first == last) {
+      // No surface crosses the face: it is wholly inside or outside. The nodes agree
+      // unless the surface is open or the winding numbers are borderline: majority.
+      regions.face_class[f] = inside_nodes >= 2 ? FaceClass::Inside : FaceClass::Outside;
+      if (inside_nodes == 1 || inside_nodes == 2) ++regions.inconsistent_faces;
+      if (regions.face_class[f] == FaceClass::Inside) {
+        for (int k = 0; k < 3; ++k) {
+          Eigen::Matrix<double, 3, 2> piece;
+          piece << corner[k], corner[(k + 1) % 3];
+          pieces.push_back(piece);
+        }
+      }
+    } else {
+      regions.face_class[f] = FaceClass::Crossing;
+      for (std::uint64_t s = first; s < last; ++s) pieces.push_back(e.contour_points[s]);
+      // Close the loops along the edges. On edge k (node k → k+1), each contour end
+      // point toggles inside/outside; which way, the segment's orientation says
+      // (inside on its left): the edge beyond the point is inside iff d × e · n > 0.
+      bool consistent = true;
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 a = corner[k], edge = corner[(k + 1) % 3] - a;
+        std::vector<EdgeCrossing> crossings;
+        for (std::uint64_t s = first; s < last; ++s) {
+          const Vec3 direction = e.contour_points[s].col(1) - e.contour_points[s].col(0);
+          for (int end = 0; end < 2; ++end) {
+            const std::uint8_t feature = e.contour_feature[s][static_cast<std::size_t>(end)];
+            const bool on_edge = feature == k || feature == 3 + k || feature == 3 + (k + 1) % 3;
+            if (!on_edge) continue;
+            const double t = feature == 3 + k ? 0.0
+                             : feature == 3 + (k + 1) % 3
+                                 ? 1.0
+                                 : std::clamp((e.contour_points[s].col(end) - a).dot(edge) / edge.squaredNorm(), 0.0, 1.0);
+            crossings.push_back({t, direction.cross(edge).dot(normal) > 0.0});
+          }
+        }
+        std::sort(crossings.begin(), crossings.end(), [](const EdgeCrossing& x, const EdgeCrossing& y) { return x.t < y.t; });
+        // State at the edge's first node: from the first crossing when it is alone at
+        // its position (exact geometry), else from the node's class.
+        bool state = e.node_inside[b.faces.nodes(k, f)] != 0;
+        if (!crossings.empty() && (crossings.size() == 1 || crossings[1].t > crossings[0].t)) {
+          const bool from_contour = !crossings[0].after;
+          if (crossings[0].t > 0.0 && from_contour != state) consistent = false;
+          state = from_contour;
+        }
+        double from = 0.0;
+        for (const EdgeCrossing& c : crossings) {
+          if (state && c.t > from) {
+            Eigen::Matrix<double, 3, 2> piece;
+            piece << a + from * edge, a + c.t * edge;
+            pieces.push_back(piece);
+          }
+          state = !state;
+          from = c.t;
+        }
+        if (state && from < 1.0) {
+          Eigen::Matrix<double, 3, 2> piece;
+          piece << a + from * edge, a + edge;
+          pieces.push_back(piece);
+        }
+      }
+      if (!consistent) ++regions.inconsistent_faces;
+    }
+    double twice_area = 0.0;
+    for (const auto& piece : pieces) twice_area += (piece.col(0) - corner[0]).cross(piece.col(1) - corner[0]).dot(unit);
+    regions.inside_area[f] = std::clamp(0.5 * twice_area, 0.0, 0.5 * normal.norm());
+    regions.pieces.insert(regions.pieces.end(), pieces.begin(), pieces.end());
+    regions.offsets[f + 1] = regions.pieces.size();
+  }
+  return regions;
+}
+
+int region_winding(const FaceRegions& regions, FaceIndex face, const Vec3& face_normal, const Vec3& x) {
+  // Project by dropping the normal's dominant axis: exact (it only selects
+  // coordinates); if that mirrors the plane, every orientation flips alike.
+  int axis = 0;
+  face_normal.cwiseAbs().maxCoeff(&axis);
+  const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+  const double px = x[u], py = x[v];
+  int winding = 0;
+  for (std::uint64_t i = regions.offsets[face]; i < regions.offsets[face + 1]; ++i) {
+    const auto& piece = regions.pieces[i];
+    const double ax = piece(u, 0), ay = piece(v, 0), bx = piece(u, 1), by = piece(v, 1);
+    // Sunday's crossing rule with exact orientation signs: upward edges that pass the
+    // point on their left count +1, downward edges with the point on their right −1.
+    if (ay <= py) {
+      if (by > py && orientation_2d(ax, ay, bx, by, px, py) > 0) ++winding;
+    } else if (by <= py && orientation_2d(ax, ay, bx, by, px, py) < 0) {
+      --winding;
+    }
+  }
+  return winding;
+}
+
+}  // namespace fissure::bake

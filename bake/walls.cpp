@@ -1,0 +1,207 @@
+#include "bake/walls.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "bake/surface_distance.h"
+#include "common/error.h"
+
+namespace fissure::bake {
+namespace {
+
+double point_segment_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = b - a;
+  const double length2 = ab.squaredNorm();
+  const double t = length2 > 0.0 ? std::clamp((p - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
+  return (p - (a + t * ab)).norm();
+}
+
+/// (u, v) moved onto the face triangle (u, v ≥ 0, u + v ≤ 1) and nudged inside, so
+/// texels beyond the face continue the classification of its nearest point.
+Vec2 onto_face(double u, double v) {
+  u = std::clamp(u, 0.0, 1.0);
+  v = std::clamp(v, 0.0, 1.0);
+  if (u + v > 1.0) {
+    const double excess = 0.5 * (u + v - 1.0);
+    u = std::clamp(u - excess, 0.0, 1.0);
+    v = std::clamp(v - excess, 0.0, 1.0);
+  }
+  constexpr double kInward = 1e-9;
+  return {u + kInward * (1.0 / 3.0 - u), v + kInward * (1.0 / 3.0 - v)};
+}
+
+std::uint64_t splitmix64(std::uint64_t& state) {
+  std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+
+}  // namespace
+
+void validate(const WallOptions& o) {
+  if (o.resolution < 2 || o.resolution > 4096) {
+    throw Error("--wall-res " + std::to_string(o.resolution) + " is out of range", "use 2 … 4096 texels (8 … 256 is typical)");
+  }
+  if (!(o.sdf_range_texels > 0.0)) throw Error("the wall SDF range must be positive");
+  if (o.depth_divisor == 0) throw Error("the wall depth divisor must be positive");
+}
+
+void bake_detail(std::uint32_t resolution, std::uint64_t seed, std::vector<std::uint8_t>& height,
+                 std::vector<std::uint8_t>& normal) {
+  // Periodic gradient (Perlin-style) noise: lattice gradients repeat every `cells`
+  // cells, so the map tiles seamlessly. Octaves double the cell count.
+  const std::uint32_t n = resolution;
+  std::vector<double> field(static_cast<std::size_t>(n) * n, 0.0);
+  double amplitude = 1.0, total_amplitude = 0.0;
+  std::uint64_t state = seed;
+  for (std::uint32_t cells = 4; cells <= 32 && cells <= n; cells *= 2) {
+    std::vector<Vec2> gradients(static_cast<std::size_t>(cells) * cells);
+    for (Vec2& g : gradients) {
+      const double angle = 2.0 * std::numbers::pi * static_cast<double>(splitmix64(state) >> 11) * 0x1.0p-53;
+      g = Vec2(std::cos(angle), std::sin(angle));
+    }
+    auto gradient = [&](std::uint32_t i, std::uint32_t j) -> const Vec2& { return gradients[(j % cells) * cells + (i % cells)]; };
+    for (std::uint32_t y = 0; y < n; ++y) {
+      for (std::uint32_t x = 0; x < n; ++x) {
+        const double fx = (x + 0.5) * cells / n, fy = (y + 0.5) * cells / n;
+        const auto i = static_cast<std::uint32_t>(fx), j = static_cast<std::uint32_t>(fy);
+        const double dx = fx - i, dy = fy - j;
+        auto fade = [](double t) { return t * t * t * (t * (t * 6 - 15) + 10); };
+        const double n00 = gradient(i, j).dot(Vec2(dx, dy)), n10 = gradient(i + 1, j).dot(Vec2(dx - 1, dy));
+        const double n01 = gradient(i, j + 1).dot(Vec2(dx, dy - 1)), n11 = gradient(i + 1, j + 1).dot(Vec2(dx - 1, dy - 1));
+        const double sx = fade(dx), sy = fade(dy);
+        field[y * n + x] += amplitude * ((n00 * (1 - sx) + n10 * sx) * (1 - sy) + (n01 * (1 - sx) + n11 * sx) * sy);
+      }
+    }
+    total_amplitude += amplitude;
+    amplitude *= 0.5;
+  }
+  height.resize(field.size());
+  normal.resize(field.size() * 3);
+  for (std::size_t i = 0; i < field.size(); ++i) {
+    const double h = std::clamp(0.5 + 0.5 * field[i] / (0.7 * total_amplitude), 0.0, 1.0);
+    height[i] = static_cast<std::uint8_t>(std::lround(255.0 * h));
+  }
+  // Normals by central differences with wrap-around, one texel = 1/n of the tile,
+  // heights in tile units scaled so slopes stay visible.
+  constexpr double kBumpScale = 4.0;
+  for (std::uint32_t y = 0; y < n; ++y) {
+    for (std::uint32_t x = 0; x < n; ++x) {
+      auto h = [&](std::uint32_t i, std::uint32_t j) { return height[(j % n) * n + (i % n)] / 255.0; };
+      const double ddx = (h(x + 1, y) - h(x + n - 1, y)) * 0.5 * kBumpScale;
+      const double ddy = (h(x, y + 1) - h(x, y + n - 1)) * 0.5 * kBumpScale;
+      const Vec3 nrm = Vec3(-ddx, -ddy, 1.0).normalized();
+      for (int k = 0; k < 3; ++k) {
+        normal[3 * (y * n + x) + static_cast<std::uint32_t>(k)] =
+            static_cast<std::uint8_t>(std::lround(std::clamp(127.5 + 127.5 * nrm[k], 0.0, 255.0)));
+      }
+    }
+  }
+}
+
+formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, const WallOptions& options) {
+  validate(options);
+  formats::Walls w;
+  const std::size_t face_count = b.faces.face_count();
+  w.resolution = options.resolution;
+  w.sdf_range_texels = options.sdf_range_texels;
+  w.depth_resolution = std::max<std::uint32_t>(4, options.resolution / options.depth_divisor);
+  w.detail_resolution = options.detail_resolution;
+  w.detail_seed = options.detail_seed;
+  w.face_class.resize(face_count);
+  w.face_tile.assign(face_count, kInvalidIndex);
+  w.face_inside_area = regions.inside_area;
+  std::vector<FaceIndex> tiled;
+  for (FaceIndex f = 0; f < face_count; ++f) {
+    w.face_class[f] = static_cast<std::uint8_t>(regions.face_class[f]);
+    if (regions.face_class[f] == FaceClass::Crossing) {
+      w.face_tile[f] = static_cast<Index>(tiled.size());
+      tiled.push_back(f);
+    }
+  }
+  const std::size_t res = options.resolution, dres = w.depth_resolution;
+  const std::size_t bytes = tiled.size() * (res * res + dres * dres);
+  if (bytes > options.memory_budget_bytes) {
+    throw Error("--wall-res " + std::to_string(res) + " needs " + std::to_string(bytes >> 20) + " MiB of tiles for " +
+                    std::to_string(tiled.size()) + " crossing faces, over the budget of " +
+                    std::to_string(options.memory_budget_bytes >> 20) + " MiB",
+                "lower --wall-res, or raise --wall-memory-budget (MiB)");
+  }
+  w.sdf.assign(tiled.size() * res * res, 0);
+  w.depth.assign(tiled.size() * dres * dres, 0);
+
+  const SurfaceDistance surface(b.render);
+  std::vector<double> max_depth(tiled.size(), 0.0);
+  std::vector<float> depth_m(tiled.size() * dres * dres, 0.0f);
+  const auto& nodes = b.cage.rest_positions;
+  const auto& e = b.embedding;
+  tbb::parallel_for(std::size_t{0}, tiled.size(), [&](std::size_t tile) {
+    const FaceIndex f = tiled[tile];
+    const Vec3 n0 = nodes.col(b.faces.nodes(0, f));
+    const Vec3 e1 = nodes.col(b.faces.nodes(1, f)) - n0, e2 = nodes.col(b.faces.nodes(2, f)) - n0;
+    const Vec3 normal = e1.cross(e2);
+    auto at = [&](double u, double v) -> Vec3 { return n0 + u * e1 + v * e2; };
+    auto inside = [&](double u, double v) {
+      const Vec2 on = onto_face(u, v);
+      return region_winding(regions, f, normal, at(on.x(), on.y())) != 0;
+    };
+    const double texel = std::max(e1.norm(), e2.norm()) / static_cast<double>(res);
+    const double range = options.sdf_range_texels * texel;
+    std::uint8_t* sdf = &w.sdf[tile * res * res];
+    for (std::size_t j = 0; j < res; ++j) {
+      for (std::size_t i = 0; i < res; ++i) {
+        const double u = (static_cast<double>(i) + 0.5) / static_cast<double>(res);
+        const double v = (static_cast<double>(j) + 0.5) / static_cast<double>(res);
+        const Vec3 x = at(u, v);
+        double d = range;
+        for (std::uint64_t s = e.contour_offsets[f]; s < e.contour_offsets[f + 1]; ++s) {
+          d = std::min(d, point_segment_distance(x, e.contour_points[s].col(0), e.contour_points[s].col(1)));
+        }
+        const double t = d / range;  // 0 on the contour, 1 at the range and beyond
+        sdf[j * res + i] = inside(u, v) ? static_cast<std::uint8_t>(128 + std::lround(127.0 * t))
+                                        : static_cast<std::uint8_t>(127 - std::lround(127.0 * t));
+      }
+    }
+    for (std::size_t j = 0; j < dres; ++j) {
+      for (std::size_t i = 0; i < dres; ++i) {
+        const double u = (static_cast<double>(i) + 0.5) / static_cast<double>(dres);
+        const double v = (static_cast<double>(j) + 0.5) / static_cast<double>(dres);
+        if (!inside(u, v)) continue;
+        const Vec2 on = onto_face(u, v);
+        const double depth = surface.distance(at(on.x(), on.y()));
+        depth_m[tile * dres * dres + j * dres + i] = static_cast<float>(depth);
+        max_depth[tile] = std::max(max_depth[tile], depth);
+      }
+    }
+  });
+  double deepest = 0.0;
+  for (const double d : max_depth) deepest = std::max(deepest, d);
+  w.depth_scale = deepest > 0.0 ? deepest : 1.0;  // 255 stands for the deepest texel
+  for (std::size_t i = 0; i < depth_m.size(); ++i) {
+    w.depth[i] = static_cast<std::uint8_t>(std::lround(255.0 * std::clamp(depth_m[i] / w.depth_scale, 0.0, 1.0)));
+  }
+  bake_detail(options.detail_resolution, options.detail_seed, w.detail_height, w.detail_normal);
+  return w;
+}
+
+double tile_inside_area(const formats::Walls& w, FaceIndex face, double face_area) {
+  const Index tile = w.face_tile[face];
+  if (tile == kInvalidIndex) return w.face_class[face] == 1 ? face_area : 0.0;
+  const std::size_t res = w.resolution;
+  const std::uint8_t* sdf = &w.sdf[tile * res * res];
+  std::size_t inside = 0;
+  for (std::size_t j = 0; j < res; ++j) {
+    for (std::size_t i = 0; i < res; ++i) {
+      if ((i + 0.5) + (j + 0.5) <= static_cast<double>(res) && sdf[j * res + i] >= 128) ++inside;
+    }
+  }
+  // Each texel covers 1/res² of the parallelogram spanned by the edges, i.e. 2/res²
+  // of the face.
+  return static_cast<double>(inside) * 2.0 * face_area / static_cast<double>(res * res);
+}
+
+}  // namespace fissure::bake
