@@ -30,6 +30,13 @@ struct GridKeyHash {
   }
 };
 
+/// Grid points sit at origin + h (index + offset). The offset is half a cell plus a
+/// little of no particular ratio, so that points practically never fall exactly on a
+/// tet face: structured cages (and the Kuhn grids in the tests) put faces on planes
+/// like x = y, where a half-cell lattice would sit exactly, and a point shared by two
+/// tets would leave one of them short of its 3 spheres.
+const Vec3 kGridOffset(0.5137, 0.5271, 0.5419);
+
 struct Sample {
   GridKey key;
   TetIndex tet;
@@ -145,13 +152,12 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
     for (int level = 0; level <= options.max_halvings; ++level) {
       std::vector<GridKey> keys;
       const double h = spacing0 / std::ldexp(1.0, level);
-      // Grid points sit at origin + (index + ½) h.
-      const Eigen::Vector3i first = ((lo - origin) / h - Vec3::Constant(0.5)).array().ceil().cast<int>();
-      const Eigen::Vector3i last = ((hi - origin) / h - Vec3::Constant(0.5)).array().floor().cast<int>();
+      const Eigen::Vector3i first = ((lo - origin) / h - kGridOffset).array().ceil().cast<int>();
+      const Eigen::Vector3i last = ((hi - origin) / h - kGridOffset).array().floor().cast<int>();
       for (int k = first.z(); k <= last.z(); ++k) {
         for (int j = first.y(); j <= last.y(); ++j) {
           for (int i = first.x(); i <= last.x(); ++i) {
-            const Vec3 x = origin + h * (Vec3(i, j, k) + Vec3::Constant(0.5));
+            const Vec3 x = origin + h * (Vec3(i, j, k) + kGridOffset);
             if (frame.coordinates(x).minCoeff() < 0.0) continue;
             if (classes[t] == TetClass::Crossing && winding.winding_number(x) < 0.5) continue;
             keys.push_back({level, i, j, k});
@@ -197,7 +203,7 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
         }
       }
     }
-    if (!surrounded) kept.push_back(s);
+    if (!surrounded || !options.cull_surrounded) kept.push_back(s);
   }
   st.culled = samples.size() - kept.size();
   std::sort(kept.begin(), kept.end(), [](const Sample& x, const Sample& y) {
@@ -205,7 +211,7 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
   });
   for (const Sample& s : kept) {
     const double h = spacing0 / std::ldexp(1.0, s.key.level);
-    const Vec3 x = origin + h * (Vec3(s.key.i, s.key.j, s.key.k) + Vec3::Constant(0.5));
+    const Vec3 x = origin + h * (Vec3(s.key.i, s.key.j, s.key.k) + kGridOffset);
     const auto nodes = tet_nodes(cage, s.tet);
     const TetBarycentricFrame frame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
     c.sphere_tet.push_back(s.tet);

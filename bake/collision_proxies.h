@@ -27,6 +27,7 @@ namespace fissure::bake {
 struct SphereOptions {
   double radius = 0.0;        ///< target radius [m] (`--sphere-radius`); 0: a fifth of the median cage edge
   int max_halvings = 4;       ///< how many times a tet may halve the radius to reach 3 spheres
+  bool cull_surrounded = true;  ///< drop spheres whose 26 grid neighbours are all present
 };
 
 /// Throws fissure::Error for a negative or non-finite radius or a negative halving count.

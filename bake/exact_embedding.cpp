@@ -283,6 +283,19 @@ SegmentResult face_triangle_segment(const SurfaceMesh& mesh, TriangleIndex tri, 
     o_t[k] = CGAL::orientation(F[0], F[1], F[2], T[k]);
     o_f[k] = CGAL::orientation(T[0], T[1], T[2], F[k]);
   }
+  // An edge of T lying in F's plane is shared with the neighbouring triangle, which
+  // would report the same segment. Keep it only from the triangle whose third vertex
+  // is on the negative side: a surface crossing the plane there then yields it once,
+  // and one folding back to touch the plane yields it twice with opposite directions
+  // (cancelling) or not at all — the inside region is right in every case.
+  {
+    int zeros = 0, positive = 0;
+    for (int k = 0; k < 3; ++k) {
+      zeros += o_t[k] == CGAL::ZERO;
+      positive += o_t[k] == CGAL::POSITIVE;
+    }
+    if (zeros == 2 && positive == 1) return {};
+  }
   Vec3 candidates[12];
   std::uint8_t features[12];
   int count = 0;
@@ -442,6 +455,14 @@ FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, cons
       } else if (result.kind == SegmentResult::Kind::Segment) {
         segments[i] = result.points;
         features[i] = result.features;
+        // An end point can sit within rounding of a face edge without the exact
+        // predicates seeing it there (the pierced triangle is the neighbour's, its own
+        // piece is shorter than the merge tolerance): tag it by distance then.
+        const auto nearby = features_by_distance(segments[i], cage.rest_positions, faces.nodes.col(face));
+        for (int end = 0; end < 2; ++end) {
+          auto& tag = features[i][static_cast<std::size_t>(end)];
+          if (tag == kContourInterior) tag = nearby[static_cast<std::size_t>(end)];
+        }
         has_segment[i] = 1;
       }
     }

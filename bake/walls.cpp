@@ -188,20 +188,4 @@ formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, 
   return w;
 }
 
-double tile_inside_area(const formats::Walls& w, FaceIndex face, double face_area) {
-  const Index tile = w.face_tile[face];
-  if (tile == kInvalidIndex) return w.face_class[face] == 1 ? face_area : 0.0;
-  const std::size_t res = w.resolution;
-  const std::uint8_t* sdf = &w.sdf[tile * res * res];
-  std::size_t inside = 0;
-  for (std::size_t j = 0; j < res; ++j) {
-    for (std::size_t i = 0; i < res; ++i) {
-      if ((i + 0.5) + (j + 0.5) <= static_cast<double>(res) && sdf[j * res + i] >= 128) ++inside;
-    }
-  }
-  // Each texel covers 1/res² of the parallelogram spanned by the edges, i.e. 2/res²
-  // of the face.
-  return static_cast<double>(inside) * 2.0 * face_area / static_cast<double>(res * res);
-}
-
 }  // namespace fissure::bake

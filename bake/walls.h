@@ -42,8 +42,5 @@ formats::Walls bake_walls(const formats::Bundle& bundle, const FaceRegions& regi
 void bake_detail(std::uint32_t resolution, std::uint64_t seed, std::vector<std::uint8_t>& height,
                  std::vector<std::uint8_t>& normal);
 
-/// Texel centres of a tile inside the face (u + v ≤ 1) whose SDF byte says inside,
-/// times the texel area: the tile's estimate of the face's inside area [m²].
-double tile_inside_area(const formats::Walls& walls, FaceIndex face, double face_area);
 
 }  // namespace fissure::bake

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 
 #include "common/barycentric.h"
 
@@ -64,6 +65,138 @@ VerifyCheck check_face_table(const TetMesh& cage, const CageFaces& faces) {
   return check;
 }
 
+/// Whether a face's contour chains are closed: every end point inside the face is
+/// the head of one segment and the tail of another (bit-exact, as the bake builds
+/// them). An open surface leaves chains ending inside faces, where the inside region
+/// has no well-defined boundary.
+bool contours_closed(const Embedding& e, FaceIndex f) {
+  std::map<std::array<double, 3>, int> balance;
+  for (std::uint64_t s = e.contour_offsets[f]; s < e.contour_offsets[f + 1]; ++s) {
+    for (int end = 0; end < 2; ++end) {
+      if (e.contour_feature[s][static_cast<std::size_t>(end)] != kContourInterior) continue;
+      const Vec3 p = e.contour_points[s].col(end);
+      balance[{p.x(), p.y(), p.z()}] += end == 0 ? 1 : -1;
+    }
+  }
+  return std::all_of(balance.begin(), balance.end(), [](const auto& entry) { return entry.second == 0; });
+}
+
+double face_area(const Bundle& b, FaceIndex f) {
+  const Vec3 a = b.cage.rest_positions.col(b.faces.nodes(0, f));
+  return 0.5 * (b.cage.rest_positions.col(b.faces.nodes(1, f)) - a).cross(b.cage.rest_positions.col(b.faces.nodes(2, f)) - a).norm();
+}
+
+VerifyCheck check_walls(const Bundle& b) {
+  VerifyCheck check{"walls", true, ""};
+  const Walls& w = *b.walls;
+  const Embedding& e = b.embedding;
+  std::size_t crossing = 0, open_faces = 0;
+  double worst_ratio = 0.0;
+  auto fail = [&](const std::string& detail) {
+    if (check.passed) check.detail = detail;
+    check.passed = false;
+  };
+  for (FaceIndex f = 0; f < b.faces.face_count(); ++f) {
+    const bool has_contour = e.contour_offsets[f + 1] > e.contour_offsets[f];
+    const double area = face_area(b, f);
+    if ((w.face_class[f] == 2) != has_contour || w.face_class[f] > 2) {
+      fail("face " + std::to_string(f) + " is classed " + std::to_string(w.face_class[f]) + " but has " +
+           (has_contour ? "" : "no ") + "contour");
+      continue;
+    }
+    if ((w.face_tile[f] != kInvalidIndex) != (w.face_class[f] == 2)) {
+      fail("face " + std::to_string(f) + ": a tile exactly when the face is crossing");
+      continue;
+    }
+    const double inside = w.face_inside_area[f];
+    if (!(inside >= 0.0 && inside <= area * (1.0 + 1e-9)) || (w.face_class[f] == 1 && std::abs(inside - area) > 1e-9 * area) ||
+        (w.face_class[f] == 0 && inside != 0.0)) {
+      fail("face " + std::to_string(f) + ": inside area " + format_double(inside) + " of " + format_double(area) +
+           " does not fit its class " + std::to_string(w.face_class[f]));
+      continue;
+    }
+    if (w.face_class[f] != 2) continue;
+    ++crossing;
+    if (!contours_closed(e, f)) {
+      ++open_faces;  // an open surface ends inside this face: no exact area to compare with
+      continue;
+    }
+    // The tile's texel count must match the exact inside area to about one texel row
+    // along the region's boundary (contour and face edges).
+    const Vec3 n0 = b.cage.rest_positions.col(b.faces.nodes(0, f));
+    const double e1 = (b.cage.rest_positions.col(b.faces.nodes(1, f)) - n0).norm();
+    const double e2 = (b.cage.rest_positions.col(b.faces.nodes(2, f)) - n0).norm();
+    const double e3 = (b.cage.rest_positions.col(b.faces.nodes(2, f)) - b.cage.rest_positions.col(b.faces.nodes(1, f))).norm();
+    double boundary = e1 + e2 + e3;
+    for (std::uint64_t s = e.contour_offsets[f]; s < e.contour_offsets[f + 1]; ++s) {
+      boundary += (e.contour_points[s].col(1) - e.contour_points[s].col(0)).norm();
+    }
+    const double texel = (e1 + e2) / w.resolution;
+    const double error = std::abs(tile_inside_area(w, f, area) - inside);
+    worst_ratio = std::max(worst_ratio, error / (boundary * texel));
+    if (error > boundary * texel) {
+      fail("face " + std::to_string(f) + ": its tile covers " + format_double(tile_inside_area(w, f, area)) +
+           " but the exact inside area is " + format_double(inside) + " (more than a texel row off)");
+    }
+  }
+  if (w.tile_count() != crossing && check.passed) fail(std::to_string(w.tile_count()) + " tiles for " + std::to_string(crossing) + " crossing faces");
+  if (check.passed) {
+    check.detail = std::to_string(crossing) + " tiles of " + std::to_string(w.resolution) +
+                   "²; worst tile-area error " + format_double(worst_ratio) + " texel rows";
+    if (open_faces > 0) check.detail += " (" + std::to_string(open_faces) + " faces with open contours not compared)";
+  }
+  return check;
+}
+
+VerifyCheck check_spheres(const Bundle& b) {
+  VerifyCheck check{"collision-spheres", true, ""};
+  const Collision& c = *b.collision;
+  for (std::size_t s = 0; s < c.sphere_tet.size() && check.passed; ++s) {
+    const Vec4& beta = c.sphere_barycentric[s];
+    if (!(beta.minCoeff() >= -1e-12) || !(std::abs(beta.sum() - 1.0) <= 1e-12) || !(c.sphere_radius[s] > 0.0) ||
+        !(c.sphere_radius[s] <= c.target_radius * (1 + 1e-12))) {
+      check.passed = false;
+      check.detail = "sphere " + std::to_string(s) + " of tet " + std::to_string(c.sphere_tet[s]) +
+                     " lies outside its tet or has a bad radius";
+    }
+  }
+  if (check.passed) {
+    check.detail = std::to_string(c.sphere_tet.size()) + " spheres inside their tets, radii ≤ the target " +
+                   format_double(c.target_radius);
+  }
+  return check;
+}
+
+VerifyCheck check_mass(const Bundle& b) {
+  VerifyCheck check{"collision-mass", true, ""};
+  const Collision& c = *b.collision;
+  double solid = 0.0;
+  for (Index t = 0; t < b.cage.tet_count() && check.passed; ++t) {
+    const double f = c.mass_fraction[t];
+    const auto cls = b.embedding.tet_class[t];
+    const bool fits = f >= 0.0 && f <= 1.0 && (cls != TetClass::Inside || f == 1.0) && (cls != TetClass::Outside || f == 0.0) &&
+                      std::abs(c.center_of_mass[t].sum() - 1.0) <= 1e-9 && (f == 0.0 || c.center_of_mass[t].minCoeff() >= -1e-9);
+    if (!fits) {
+      check.passed = false;
+      check.detail = "tet " + std::to_string(t) + ": mass fraction " + format_double(f) +
+                     " or centre of mass does not fit its class";
+    }
+    solid += f * signed_volume(b.cage, t);
+  }
+  if (!check.passed) return check;
+  // On a closed surface the solid parts of the tets add up to the enclosed volume.
+  if (analyze_topology(b.render).closed()) {
+    const double enclosed = enclosed_volume(b.render);
+    const double error = std::abs(solid - enclosed) / std::max(std::abs(enclosed), 1e-300);
+    check.passed = error <= 1e-9;
+    check.detail = "Σ fraction·volume = " + format_double(solid) + " vs enclosed volume " + format_double(enclosed) +
+                   " (relative error " + format_double(error) + ")";
+  } else {
+    check.detail = "fractions in [0, 1] and consistent with the tet classes (open surface: no volume to compare)";
+  }
+  return check;
+}
+
 }  // namespace
 
 bool VerifyReport::passed() const {
@@ -77,6 +210,31 @@ std::vector<double> covered_area(const SurfaceMesh& render, const TetMesh& cage,
     covered[embedding.instance_triangle[i]] += polygon_area(polygon, tet_nodes(cage, embedding.instance_tet[i]));
   }
   return covered;
+}
+
+double tile_inside_area(const Walls& w, FaceIndex face, double face_area) {
+  const Index tile = w.face_tile[face];
+  if (tile == kInvalidIndex) return w.face_class[face] == 1 ? face_area : 0.0;
+  const std::size_t res = w.resolution;
+  const std::uint8_t* sdf = &w.sdf[tile * res * res];
+  std::size_t inside = 0;
+  for (std::size_t j = 0; j < res; ++j) {
+    for (std::size_t i = 0; i < res; ++i) {
+      if ((i + 0.5) + (j + 0.5) <= static_cast<double>(res) && sdf[j * res + i] >= 128) ++inside;
+    }
+  }
+  // Each texel covers 1/res² of the parallelogram spanned by the edges, i.e. 2/res²
+  // of the face.
+  return static_cast<double>(inside) * 2.0 * face_area / static_cast<double>(res * res);
+}
+
+double enclosed_volume(const SurfaceMesh& mesh) {
+  double volume = 0.0;
+  for (Index t = 0; t < mesh.triangle_count(); ++t) {
+    const Vec3 a = mesh.positions.col(mesh.triangles(0, t));
+    volume += a.dot(mesh.positions.col(mesh.triangles(1, t)).cross(mesh.positions.col(mesh.triangles(2, t)))) / 6.0;
+  }
+  return volume;
 }
 
 std::vector<std::size_t> replication_histogram(std::size_t triangle_count, const Embedding& embedding) {
@@ -204,6 +362,13 @@ VerifyReport verify_bundle(const Bundle& b, const VerifyTolerances& tol) {
       contours.detail = std::to_string(e.segment_count()) + " segments, max plane offset " + format_double(worst);
     }
     report.checks.push_back(contours);
+  }
+  if (b.walls) {
+    report.checks.push_back(check_walls(b));
+  }
+  if (b.collision) {
+    report.checks.push_back(check_spheres(b));
+    report.checks.push_back(check_mass(b));
   }
   return report;
 }

@@ -34,6 +34,14 @@ VerifyReport verify_bundle(const Bundle& bundle, const VerifyTolerances& toleran
 /// assigned to (Σ over its instances of area(triangle ∩ tet)).
 std::vector<double> covered_area(const SurfaceMesh& render, const TetMesh& cage, const Embedding& embedding);
 
+/// Texel centres of a face's tile inside the face (u + v ≤ 1) whose SDF byte says
+/// inside, times the texel area: the tile's estimate of the face's inside area [m²].
+/// Faces without a tile: the face area if classed inside, else 0.
+double tile_inside_area(const Walls& walls, FaceIndex face, double face_area);
+
+/// Volume enclosed by a closed, outward-oriented surface (divergence theorem) [m³].
+double enclosed_volume(const SurfaceMesh& mesh);
+
 /// Number of render triangles stored k times, for k = 1 … 7 and 8+ (index 0 counts
 /// triangles with no instance at all). Thesis Table II.
 std::vector<std::size_t> replication_histogram(std::size_t triangle_count, const Embedding& embedding);

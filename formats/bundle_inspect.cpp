@@ -109,6 +109,19 @@ std::string summary_text(const BundleSummary& s) {
   add("  replication   ");
   for (std::size_t k = 1; k < c.replication.size(); ++k) add("%zu%s:%zu ", k, k == 8 ? "+" : "x", c.replication[k]);
   add("\n  contours      %zu segments\n", b.embedding.segment_count());
+  if (b.walls) {
+    std::size_t by_class[3] = {0, 0, 0};
+    for (const auto cls : b.walls->face_class) ++by_class[std::min<int>(cls, 2)];
+    add("walls\n  tiles         %zu of %u² texels (SDF range %.3g texels), depth %u², detail %u²\n", b.walls->tile_count(),
+        b.walls->resolution, b.walls->sdf_range_texels, b.walls->depth_resolution, b.walls->detail_resolution);
+    add("  faces         %zu crossing, %zu inside (shared material), %zu outside\n", by_class[2], by_class[1], by_class[0]);
+  }
+  if (b.collision) {
+    double solid = 0.0;
+    for (Index t = 0; t < b.cage.tet_count(); ++t) solid += b.collision->mass_fraction[t] * signed_volume(b.cage, t);
+    add("collision\n  spheres       %zu (target radius %.4g)\n  solid volume  %.6g (Σ mass fraction × tet volume)\n",
+        b.collision->sphere_tet.size(), b.collision->target_radius, solid);
+  }
   add("datasets\n");
   for (const DatasetSummary& d : s.datasets) {
     std::string shape;
@@ -153,6 +166,11 @@ std::string summary_json(const BundleSummary& s) {
   j.key("crossing_faces").value(static_cast<std::uint64_t>(c.crossing_faces));
   j.key("instances").value(static_cast<std::uint64_t>(b.embedding.instance_count()));
   j.key("contour_segments").value(static_cast<std::uint64_t>(b.embedding.segment_count()));
+  if (b.walls) {
+    j.key("wall_tiles").value(static_cast<std::uint64_t>(b.walls->tile_count()));
+    j.key("wall_resolution").value(static_cast<std::uint64_t>(b.walls->resolution));
+  }
+  if (b.collision) j.key("collision_spheres").value(static_cast<std::uint64_t>(b.collision->sphere_tet.size()));
   j.end_object();
   j.key("replication").begin_array();
   for (const auto n : c.replication) j.value(static_cast<std::uint64_t>(n));

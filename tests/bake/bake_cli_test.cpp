@@ -99,6 +99,41 @@ TEST(BakeCli, ErrorsExitOneNameTheFileAndWriteNothing) {
   }
 }
 
+TEST(BakeCli, StageOptionsChooseTheGroupsWritten) {
+  testing::TempDir dir;
+  const std::string inputs = " --mesh " + quoted(kMesh) + " --cage " + quoted(kCage);
+  ASSERT_EQ(run("-q bake" + inputs + " --skip walls -o " + quoted(dir / "no-walls.h5")).exit_code, 0);
+  Result r = run("inspect --json " + quoted(dir / "no-walls.h5"));
+  EXPECT_NE(r.output.find("\"stages\":[\"embedding\",\"collision\"]"), std::string::npos) << r.output;
+  EXPECT_EQ(run("verify " + quoted(dir / "no-walls.h5")).exit_code, 0);
+
+  ASSERT_EQ(run("-q bake" + inputs + " --only walls --wall-res 16 -o " + quoted(dir / "walls.h5")).exit_code, 0);
+  r = run("inspect --json " + quoted(dir / "walls.h5"));
+  EXPECT_NE(r.output.find("\"stages\":[\"embedding\",\"walls\"]"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"wall_resolution\":16"), std::string::npos) << r.output;
+  r = run("verify " + quoted(dir / "walls.h5"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("PASS  walls"), std::string::npos) << r.output;
+}
+
+TEST(BakeCli, BadStageOptionsAreClearErrors) {
+  testing::TempDir dir;
+  const std::string inputs = " --mesh " + quoted(kMesh) + " --cage " + quoted(kCage) + " -o " + quoted(dir / "x.h5");
+  for (const auto& [options, needle] : std::vector<std::pair<std::string, std::string>>{
+           {"--wall-res 0", "--wall-res 0 must be positive"},
+           {"--wall-res -8", "--wall-res"},
+           {"--sphere-radius 0", "--sphere-radius"},
+           {"--sphere-radius -0.01", "--sphere-radius"},
+           {"--wall-res 4096 --wall-memory-budget 1", "over the budget"},
+           {"--only walls --skip collision", "cannot be combined"},
+           {"--only fracture", "fracture"}}) {
+    const Result r = run("bake" + inputs + " " + options);
+    EXPECT_NE(r.exit_code, 0) << options;
+    EXPECT_NE(r.output.find(needle), std::string::npos) << options << "\n" << r.output;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.h5"));
+}
+
 TEST(BakeCli, VerifyFailsOnACorruptBundle) {
   testing::TempDir dir;
   const Result r = run("verify " + quoted(dir.write("junk.h5", "not hdf5")));

@@ -16,6 +16,10 @@ TEST(SurfaceTopology, IcosphereIsClosed) {
   EXPECT_EQ(topology.edges, 3 * sphere.triangle_count() / 2);
 }
 
+TEST(SurfaceTopology, ProceduralBoxIsClosed) {
+  EXPECT_TRUE(analyze_topology(testing::box_surface(Vec3(-0.9, -0.9, -0.9), Vec3(0.9, 0.9, 0.3), 6)).closed());
+}
+
 TEST(SurfaceTopology, RemovingTrianglesOpensHoles) {
   SurfaceMesh sphere = testing::icosphere(2);
   // Drop triangle 0 and one far from it: two separate holes of 3 edges each.

@@ -97,8 +97,12 @@ SurfaceMesh box_surface(const Vec3& lo, const Vec3& hi, int n) {
         for (int j = 0; j <= n; ++j) {
           Vec3 p;
           p[axis] = sign ? hi[axis] : lo[axis];
-          p[u_axis] = lo[u_axis] + (hi[u_axis] - lo[u_axis]) * i / n;
-          p[v_axis] = lo[v_axis] + (hi[v_axis] - lo[v_axis]) * j / n;
+          // Ends exactly at lo and hi, so neighbouring faces share their edge vertices.
+          auto along = [&](int axis_index, int step) {
+            return step == 0 ? lo[axis_index] : step == n ? hi[axis_index] : lo[axis_index] + (hi[axis_index] - lo[axis_index]) * step / n;
+          };
+          p[u_axis] = along(u_axis, i);
+          p[v_axis] = along(v_axis, j);
           points.push_back(p);
         }
       }

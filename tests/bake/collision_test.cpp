@@ -1,0 +1,144 @@
+#include "bake/collision_proxies.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+#include <tuple>
+
+#include "bake/bake.h"
+#include "common/error.h"
+#include "common/barycentric.h"
+#include "formats/bundle_checks.h"
+#include "tests/support/procedural.h"
+
+namespace fissure::bake {
+namespace {
+
+formats::Bundle bake_collision_only(const SurfaceMesh& mesh, const TetMesh& cage, SphereOptions spheres,
+                                    CollisionStats* stats = nullptr) {
+  BakeOptions options;
+  options.walls = false;
+  options.spheres = spheres;
+  BakeStats bake_stats;
+  formats::Bundle bundle = embed(mesh, cage, options, "mesh", "cage", &bake_stats);
+  if (stats) *stats = bake_stats.collision;
+  return bundle;
+}
+
+Vec3 sphere_centre(const formats::Bundle& b, std::size_t s) {
+  Eigen::Matrix<double, 3, 4> nodes;
+  for (int i = 0; i < 4; ++i) nodes.col(i) = b.cage.rest_positions.col(b.cage.tets(i, b.collision->sphere_tet[s]));
+  return nodes * b.collision->sphere_barycentric[s];
+}
+
+TEST(CollisionSpheres, EverySphereIsInsideItsTetAndTheSolid) {
+  const SurfaceMesh sphere = testing::icosphere(3, 1.0);
+  const TetMesh cage = testing::grid_cage(Vec3::Constant(-1.3), Vec3::Constant(1.3), 4, 4, 4);
+  CollisionStats stats;
+  const formats::Bundle b = bake_collision_only(sphere, cage, SphereOptions{.radius = 0.08}, &stats);
+  const WindingNumberTree winding(sphere);
+  ASSERT_GT(b.collision->sphere_tet.size(), 50u);
+  for (std::size_t s = 0; s < b.collision->sphere_tet.size(); ++s) {
+    EXPECT_GE(b.collision->sphere_barycentric[s].minCoeff(), 0.0) << "sphere " << s;
+    EXPECT_GE(winding.winding_number_direct(sphere_centre(b, s)), 0.5) << "sphere " << s;
+  }
+  EXPECT_EQ(stats.tets_short, 0u);
+}
+
+TEST(CollisionSpheres, EveryNonEmptyTetGetsThreeSamplesBeforeCulling) {
+  const SurfaceMesh sphere = testing::icosphere(3, 1.0);
+  const TetMesh cage = testing::grid_cage(Vec3::Constant(-1.3), Vec3::Constant(1.3), 4, 4, 4);
+  SphereOptions options{.radius = 0.3, .max_halvings = 8, .cull_surrounded = false};
+  CollisionStats stats;
+  const formats::Bundle b = bake_collision_only(sphere, cage, options, &stats);
+  std::vector<std::size_t> per_tet(cage.tet_count(), 0);
+  for (const TetIndex t : b.collision->sphere_tet) ++per_tet[t];
+  for (Index t = 0; t < cage.tet_count(); ++t) {
+    if (b.collision->mass_fraction[t] > 1e-3) {
+      EXPECT_GE(per_tet[t], 3u) << "tet " << t;
+    }
+  }
+  EXPECT_GT(stats.tets_halved, 0u);  // the coarse radius forces halving somewhere
+}
+
+TEST(CollisionSpheres, CullingRemovesExactlyTheFullySurroundedSpheres) {
+  const SurfaceMesh box = testing::box_surface(Vec3::Constant(-0.8), Vec3::Constant(0.8), 4);
+  const TetMesh cage = testing::grid_cage(Vec3::Constant(-1), Vec3::Constant(1), 2, 2, 2);
+  SphereOptions all{.radius = 0.05, .max_halvings = 0, .cull_surrounded = false};
+  SphereOptions culled = all;
+  culled.cull_surrounded = true;
+  const formats::Bundle full = bake_collision_only(box, cage, all);
+  const formats::Bundle kept = bake_collision_only(box, cage, culled);
+  // Rebuild integer grid coordinates from the centres (spacing 2r from the cage's min corner).
+  auto keys = [](const formats::Bundle& b) {
+    std::set<std::tuple<long, long, long>> out;
+    for (std::size_t s = 0; s < b.collision->sphere_tet.size(); ++s) {
+      const Vec3 g = (sphere_centre(b, s) - Vec3::Constant(-1)) / 0.1 - Vec3(0.5137, 0.5271, 0.5419);
+      out.insert({std::lround(g.x()), std::lround(g.y()), std::lround(g.z())});
+    }
+    return out;
+  };
+  const auto all_keys = keys(full), kept_keys = keys(kept);
+  ASSERT_EQ(all_keys.size(), full.collision->sphere_tet.size());
+  std::size_t expected_kept = 0;
+  for (const auto& [i, j, k] : all_keys) {
+    bool surrounded = true;
+    for (int d = 0; d < 27 && surrounded; ++d) {
+      if (d == 13) continue;
+      surrounded = all_keys.count({i + d % 3 - 1, j + (d / 3) % 3 - 1, k + d / 9 - 1}) > 0;
+    }
+    EXPECT_EQ(kept_keys.count({i, j, k}) > 0, !surrounded);
+    expected_kept += !surrounded;
+  }
+  EXPECT_EQ(kept_keys.size(), expected_kept);
+  EXPECT_LT(expected_kept, all_keys.size());  // the box interior is culled
+}
+
+TEST(MassProperties, CubeInACubeCageIsExact) {
+  // A 1.2-wide cube in a 4×4×4 grid of 0.5 cells: some tets wholly inside, many cut.
+  const SurfaceMesh cube = testing::box_surface(Vec3::Constant(-0.6), Vec3::Constant(0.6), 3);
+  const TetMesh cage = testing::grid_cage(Vec3::Constant(-1), Vec3::Constant(1), 4, 4, 4);
+  const formats::Bundle b = bake_collision_only(cube, cage, SphereOptions{});
+  double volume = 0.0;
+  Vec3 moment = Vec3::Zero();
+  for (Index t = 0; t < cage.tet_count(); ++t) {
+    const double f = b.collision->mass_fraction[t];
+    ASSERT_GE(f, 0.0);
+    ASSERT_LE(f, 1.0);
+    Eigen::Matrix<double, 3, 4> nodes;
+    for (int i = 0; i < 4; ++i) nodes.col(i) = cage.rest_positions.col(cage.tets(i, t));
+    bool all_inside = true;
+    for (int i = 0; i < 4; ++i) all_inside = all_inside && nodes.col(i).cwiseAbs().maxCoeff() <= 0.6;
+    if (all_inside) {
+      EXPECT_EQ(f, 1.0) << "tet " << t;
+    }
+    // Sampling check of the exact fraction on a fine barycentric lattice.
+    int inside = 0, total = 0;
+    const int n = 24;
+    for (int a = 0; a <= n; ++a) {
+      for (int bb = 0; a + bb <= n; ++bb) {
+        for (int c = 0; a + bb + c <= n; ++c) {
+          const Vec4 beta(n - a - bb - c, a, bb, c);
+          const Vec3 x = nodes * (beta / n);
+          inside += x.cwiseAbs().maxCoeff() < 0.6;
+          ++total;
+        }
+      }
+    }
+    EXPECT_NEAR(f, static_cast<double>(inside) / total, 0.12) << "tet " << t;
+    const double v = signed_volume(cage, t);
+    volume += f * v;
+    moment += f * v * (nodes * b.collision->center_of_mass[t]);
+  }
+  EXPECT_NEAR(volume, 1.2 * 1.2 * 1.2, 1e-12);
+  EXPECT_LT(moment.norm(), 1e-12);  // symmetric about the origin
+}
+
+TEST(MassProperties, BadOptionsAreErrors) {
+  EXPECT_THROW(validate(SphereOptions{.radius = -1.0}), Error);
+  EXPECT_THROW(validate(SphereOptions{.radius = std::numeric_limits<double>::infinity()}), Error);
+  EXPECT_THROW(validate(SphereOptions{.radius = 0.1, .max_halvings = -1}), Error);
+}
+
+}  // namespace
+}  // namespace fissure::bake
