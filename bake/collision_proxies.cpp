@@ -149,7 +149,23 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
     }
     if (c.mass_fraction[t] <= 0.0) return;
     const Vec3 lo = nodes.rowwise().minCoeff(), hi = nodes.rowwise().maxCoeff();
-    for (int level = 0; level <= options.max_halvings; ++level) {
+    // The exact solid volume says which level can hold 3 samples (a lattice cell of
+    // volume h³ per sample): start there rather than scanning coarser levels in vain,
+    // and never scan a level finer than needed.
+    const double solid_volume = c.mass_fraction[t] * tet_volume;
+    int start_level = 0;
+    while (start_level < options.max_halvings && solid_volume < 3.0 * std::pow(spacing0 / std::ldexp(1.0, start_level), 3)) {
+      ++start_level;
+    }
+    const double finest = spacing0 / std::ldexp(1.0, options.max_halvings);
+    if (solid_volume < finest * finest * finest) {
+      // Less solid than one cell of the finest lattice: no level can give it 3
+      // spheres, and scanning would cost the most of all. Its neighbours' spheres
+      // cover it.
+      short_of_three[t] = 1;
+      return;
+    }
+    for (int level = start_level; level <= options.max_halvings; ++level) {
       std::vector<GridKey> keys;
       const double h = spacing0 / std::ldexp(1.0, level);
       const Eigen::Vector3i first = ((lo - origin) / h - kGridOffset).array().ceil().cast<int>();

@@ -38,4 +38,13 @@ double SurfaceDistance::distance(const Vec3& p) const {
   return std::sqrt(m_tree->tree.squared_distance(Kernel::Point_3(p.x(), p.y(), p.z())));
 }
 
+double SurfaceDistance::distance(const Vec3& p, Vec3& closest, bool have_closest) const {
+  if (m_tree->triangles.empty()) return 0.0;
+  const Kernel::Point_3 query(p.x(), p.y(), p.z());
+  const Kernel::Point_3 found = have_closest ? m_tree->tree.closest_point(query, Kernel::Point_3(closest.x(), closest.y(), closest.z()))
+                                             : m_tree->tree.closest_point(query);
+  closest = Vec3(found.x(), found.y(), found.z());
+  return (p - closest).norm();
+}
+
 }  // namespace fissure::bake

@@ -17,6 +17,9 @@ class SurfaceDistance {
 
   /// Distance [m] from p to the nearest point of the surface. Thread-safe.
   [[nodiscard]] double distance(const Vec3& p) const;
+  /// The same, starting the search from `closest` when `have_closest` (the closest
+  /// surface point of a neighbouring query); `closest` then receives p's closest point.
+  [[nodiscard]] double distance(const Vec3& p, Vec3& closest, bool have_closest) const;
 
  private:
   struct Tree;

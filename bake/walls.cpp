@@ -7,6 +7,8 @@
 #include <numbers>
 
 #include "bake/surface_distance.h"
+#include <utility>
+#include <vector>
 #include "common/error.h"
 
 namespace fissure::bake {
@@ -38,6 +40,76 @@ std::uint64_t splitmix64(std::uint64_t& state) {
   z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
   z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
   return z ^ (z >> 31);
+}
+
+double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+
+/// Inside (1) / outside (0) of every texel centre of a tile. Centres on the face
+/// (u + v ≤ 1) are classified exactly: a scan line per row finds where the row crosses
+/// the region's boundary (in double), and any centre within rounding of a crossing, or
+/// any row passing within rounding of a boundary vertex, is decided by the exact winding
+/// test instead. Centres beyond the face take the class of their mirror image across the
+/// diagonal, which continues the field smoothly for bilinear filtering at the edge.
+std::vector<std::uint8_t> classify_texels(const FaceRegions& regions, FaceIndex f, const Vec3& n0, const Vec3& e1,
+                                          const Vec3& e2, std::size_t res) {
+  const Vec3 normal = e1.cross(e2);
+  int axis = 0;
+  normal.cwiseAbs().maxCoeff(&axis);
+  const int U = (axis + 1) % 3, V = (axis + 2) % 3;
+  auto flat = [&](const Vec3& p) { return Vec2(p[U], p[V]); };
+  const Vec2 t = flat(e1);
+  const double scale = e1.norm() + e2.norm();
+  constexpr double kTolerance = 1e-9;
+  std::vector<std::pair<Vec2, Vec2>> pieces;
+  for (std::uint64_t k = regions.offsets[f]; k < regions.offsets[f + 1]; ++k) {
+    pieces.emplace_back(flat(regions.pieces[k].col(0)), flat(regions.pieces[k].col(1)));
+  }
+  std::vector<std::uint8_t> classes(res * res, 0);
+  std::vector<std::pair<double, int>> crossings;
+  // Centres on the face's edges (u + v = 1 happens for every even resolution) are
+  // nudged inside first, like the centres beyond the face.
+  auto exact = [&](double u, double v) {
+    const Vec2 on = onto_face(u, v);
+    return region_winding(regions, f, normal, n0 + on.x() * e1 + on.y() * e2) != 0;
+  };
+  const double t_length = t.norm();
+  for (std::size_t j = 0; j < res; ++j) {
+    const double v = (static_cast<double>(j) + 0.5) / static_cast<double>(res);
+    const Vec2 r0 = flat(n0 + v * e2);
+    // Signed distances of the boundary vertices from the row line.
+    bool degenerate = false;
+    crossings.clear();
+    for (const auto& [a, b] : pieces) {
+      const double side_a = cross2(t, a - r0) / t_length, side_b = cross2(t, b - r0) / t_length;
+      if (std::abs(side_a) <= kTolerance * scale || std::abs(side_b) <= kTolerance * scale) {
+        degenerate = true;
+        break;
+      }
+      if ((side_a < 0) == (side_b < 0)) continue;
+      const Vec2 d = b - a;
+      // Moving along +t past a boundary piece with direction d changes the winding by
+      // −sign(t × d): the ray from a point towards +t counts the pieces ahead of it.
+      crossings.emplace_back(cross2(a - r0, d) / cross2(t, d), cross2(t, d) > 0 ? 1 : -1);
+    }
+    int ahead = 0;
+    for (const auto& c : crossings) ahead += c.second;
+    std::sort(crossings.begin(), crossings.end());
+    std::size_t next = 0;
+    for (std::size_t i = 0; i < res; ++i) {
+      const double u = (static_cast<double>(i) + 0.5) / static_cast<double>(res);
+      if ((static_cast<double>(i) + 0.5) + (static_cast<double>(j) + 0.5) > static_cast<double>(res)) break;
+      while (next < crossings.size() && crossings[next].first < u) ahead -= crossings[next++].second;
+      const bool near_crossing = (next < crossings.size() && crossings[next].first - u <= kTolerance) ||
+                                 (next > 0 && u - crossings[next - 1].first <= kTolerance);
+      classes[j * res + i] = (degenerate || near_crossing) ? exact(u, v) : ahead != 0;
+    }
+  }
+  for (std::size_t j = 0; j < res; ++j) {
+    for (std::size_t i = 0; i < res; ++i) {
+      if (i + j + 1 > res) classes[j * res + i] = classes[(res - 1 - i) * res + (res - 1 - j)];
+    }
+  }
+  return classes;
 }
 
 }  // namespace
@@ -152,6 +224,7 @@ formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, 
     const double texel = std::max(e1.norm(), e2.norm()) / static_cast<double>(res);
     const double range = options.sdf_range_texels * texel;
     std::uint8_t* sdf = &w.sdf[tile * res * res];
+    const std::vector<std::uint8_t> classes = classify_texels(regions, f, n0, e1, e2, res);
     for (std::size_t j = 0; j < res; ++j) {
       for (std::size_t i = 0; i < res; ++i) {
         const double u = (static_cast<double>(i) + 0.5) / static_cast<double>(res);
@@ -162,17 +235,21 @@ formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, 
           d = std::min(d, point_segment_distance(x, e.contour_points[s].col(0), e.contour_points[s].col(1)));
         }
         const double t = d / range;  // 0 on the contour, 1 at the range and beyond
-        sdf[j * res + i] = inside(u, v) ? static_cast<std::uint8_t>(128 + std::lround(127.0 * t))
-                                        : static_cast<std::uint8_t>(127 - std::lround(127.0 * t));
+        sdf[j * res + i] = classes[j * res + i] ? static_cast<std::uint8_t>(128 + std::lround(127.0 * t))
+                                                : static_cast<std::uint8_t>(127 - std::lround(127.0 * t));
       }
     }
+    bool have_hint = false;
+    Vec3 hint = Vec3::Zero();
     for (std::size_t j = 0; j < dres; ++j) {
       for (std::size_t i = 0; i < dres; ++i) {
         const double u = (static_cast<double>(i) + 0.5) / static_cast<double>(dres);
         const double v = (static_cast<double>(j) + 0.5) / static_cast<double>(dres);
         if (!inside(u, v)) continue;
         const Vec2 on = onto_face(u, v);
-        const double depth = surface.distance(at(on.x(), on.y()));
+        // Neighbouring texels have nearby closest points: seed each search with the last.
+        const double depth = surface.distance(at(on.x(), on.y()), hint, have_hint);
+        have_hint = true;
         depth_m[tile * dres * dres + j * dres + i] = static_cast<float>(depth);
         max_depth[tile] = std::max(max_depth[tile], depth);
       }

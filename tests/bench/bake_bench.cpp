@@ -99,6 +99,8 @@ void print_all_pairs_baseline(const fs::path& data) {
 
 struct CaseResult {
   double total_s = 0, import_s = 0, assign_s = 0, coverage_s = 0, classify_s = 0, contours_s = 0;
+  double regions_s = 0, walls_s = 0, collision_s = 0;
+  std::size_t tiles = 0, spheres = 0;
   std::size_t triangles = 0, tets = 0, instances = 0, segments = 0;
   long peak_kib = 0;
   long baseline_kib = 0;  ///< resident when the child started (meshes the harness holds)
@@ -148,6 +150,11 @@ bool run_case(const SurfaceMesh& mesh, const fs::path& cage_path, CaseResult& ou
     r.coverage_s = stats.coverage_s;
     r.classify_s = stats.classify_s;
     r.contours_s = stats.contours_s;
+    r.regions_s = stats.regions_s;
+    r.walls_s = stats.walls_s;
+    r.collision_s = stats.collision_s;
+    r.tiles = bundle.walls ? bundle.walls->tile_count() : 0;
+    r.spheres = bundle.collision ? bundle.collision->sphere_tet.size() : 0;
     r.triangles = mesh.triangle_count();
     r.tets = cage.mesh.tet_count();
     r.instances = bundle.embedding.instance_count();
@@ -213,19 +220,22 @@ int main(int argc, char** argv) {
         meshes.push_back({"bunny-full ×4^" + std::to_string(s), full});
       }
     }
-    std::printf("\n### Bake time and peak memory (threads: %s)\n\n", threads > 0 ? std::to_string(threads).c_str() : "all");
-    std::printf("| mesh | triangles | tets | instances | segments | assign s | coverage s | classify s | contours s | total s | "
-                "µs per (triangle+tet) | peak MiB above baseline |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    std::printf("\n### Bake time and peak memory, all stages (threads: %s; walls 64², default sphere radius)\n\n",
+                threads > 0 ? std::to_string(threads).c_str() : "all");
+    std::printf("| mesh | triangles | tets | instances | assign s | coverage s | classify s | contours s | regions s | "
+                "walls s (tiles) | collision s (spheres) | total s | µs per (triangle+tet) | peak MiB above baseline |\n"
+                "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const MeshCase& m : meshes) {
       for (const char* cage : {"bunny-5k-cage-987.node", "bunny-5k-cage-10024.node"}) {
         CaseResult r;
         if (!run_case(m.mesh, data / "cages" / cage, r)) {
-          std::printf("| %s | %zu | %s | failed | | | | | | | | |\n", m.name.c_str(), m.mesh.triangle_count(), cage);
+          std::printf("| %s | %zu | %s | failed | | | | | | | | | | |\n", m.name.c_str(), m.mesh.triangle_count(), cage);
           continue;
         }
-        std::printf("| %s | %zu | %zu | %zu | %zu | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.0f |\n", m.name.c_str(),
-                    r.triangles, r.tets, r.instances, r.segments, r.assign_s, r.coverage_s, r.classify_s, r.contours_s,
-                    r.total_s, 1e6 * r.total_s / static_cast<double>(r.triangles + r.tets),
+        std::printf("| %s | %zu | %zu | %zu | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f (%zu) | %.3f (%zu) | %.3f | %.2f | %.0f |\n",
+                    m.name.c_str(), r.triangles, r.tets, r.instances, r.assign_s, r.coverage_s, r.classify_s,
+                    r.contours_s, r.regions_s, r.walls_s, r.tiles, r.collision_s, r.spheres, r.total_s,
+                    1e6 * r.total_s / static_cast<double>(r.triangles + r.tets),
                     static_cast<double>(r.peak_kib - r.baseline_kib) / 1024.0);
         std::fflush(stdout);
       }
