@@ -203,6 +203,7 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
   e.contour_points = std::move(contours.points);
   e.contour_triangle = std::move(contours.triangle);
   e.contour_feature = std::move(contours.features);
+  e.face_degenerate = std::move(contours.degenerate_faces);
   s.contours_s = seconds_since(start);
   log_stage("contours", std::to_string(e.segment_count()) + " segments on the cage faces", s.contours_s);
 

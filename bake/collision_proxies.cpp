@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <unordered_set>
 
 #include "common/barycentric.h"
@@ -124,6 +125,17 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
   c.target_radius = options.radius > 0.0 ? options.radius : default_sphere_radius(cage);
   const Vec3 origin = cage.rest_positions.rowwise().minCoeff();
   const double spacing0 = 2.0 * c.target_radius;
+  {
+    // Grid indices are 32-bit, and a lattice this fine would take forever to scan.
+    const double extent = (cage.rest_positions.rowwise().maxCoeff() - origin).maxCoeff();
+    const double cells = extent / (spacing0 / std::ldexp(1.0, options.max_halvings));
+    if (!(cells <= 1 << 20)) {
+      char text[160];
+      std::snprintf(text, sizeof text, "--sphere-radius %.3g is too small for a cage %.3g across (%.3g grid cells per axis)",
+                    c.target_radius, extent, cells);
+      throw Error(text, "use a radius of at least a few thousandths of the cage size");
+    }
+  }
 
   // Instances grouped by tet, for the mass integrals.
   std::vector<std::vector<std::size_t>> by_tet(cage.tet_count());
@@ -131,7 +143,7 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
 
   // 1. Samples per tet, halving the spacing until a non-empty tet has 3.
   std::vector<std::vector<GridKey>> per_tet(cage.tet_count());
-  std::vector<std::uint8_t> halved(cage.tet_count(), 0), short_of_three(cage.tet_count(), 0);
+  std::vector<std::uint8_t> halved(cage.tet_count(), 0), short_of_three(cage.tet_count(), 0), sampled(cage.tet_count(), 0);
   c.mass_fraction.assign(cage.tet_count(), 0.0);
   c.center_of_mass.assign(cage.tet_count(), Vec4::Constant(0.25));
   tbb::parallel_for(std::size_t{0}, cage.tet_count(), [&](std::size_t t) {
@@ -140,12 +152,42 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
     const auto nodes = tet_nodes(cage, tet);
     const TetBarycentricFrame frame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
     const double tet_volume = signed_volume(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
+    bool beside_degenerate = false;
+    for (int local = 0; local < 4; ++local) beside_degenerate |= b.embedding.face_degenerate[b.faces.tet_faces(local, tet)] != 0;
     if (classes[t] == TetClass::Inside) {
       c.mass_fraction[t] = 1.0;
+    } else if (beside_degenerate) {
+      // A face of this tet lies in the surface, where the exact integral needs the
+      // face's inside region, which is not defined: estimate on a barycentric lattice.
+      constexpr int kLattice = 16;
+      int inside = 0, total = 0;
+      Vec3 sum = Vec3::Zero();
+      for (int i = 0; i <= kLattice; ++i) {
+        for (int j = 0; i + j <= kLattice; ++j) {
+          for (int k = 0; i + j + k <= kLattice; ++k) {
+            // Lattice points nudged toward the centroid, off the faces themselves.
+            const Vec4 beta = (Vec4(kLattice - i - j - k, i, j, k) / kLattice) * (1.0 - 1e-6) + Vec4::Constant(0.25e-6);
+            const Vec3 x = nodes * beta;
+            ++total;
+            if (winding.winding_number(x) >= 0.5) {
+              ++inside;
+              sum += x;
+            }
+          }
+        }
+      }
+      c.mass_fraction[t] = static_cast<double>(inside) / total;
+      if (inside > 0) c.center_of_mass[t] = frame.coordinates(sum / inside);
+      sampled[t] = 1;
     } else {
       const SolidPart part = solid_part(b, regions, tet, by_tet[t]);
-      c.mass_fraction[t] = std::clamp(part.volume / tet_volume, 0.0, 1.0);
-      c.center_of_mass[t] = frame.coordinates(part.centroid);
+      if (part.volume > 1e-10 * tet_volume) {
+        c.mass_fraction[t] = std::clamp(part.volume / tet_volume, 0.0, 1.0);
+        // The centroid of a solid part is inside the tet; clamp rounding noise (which
+        // dominates when the part is a tiny corner) back into it.
+        Vec4 beta = frame.coordinates(part.centroid).cwiseMax(0.0);
+        c.center_of_mass[t] = beta / beta.sum();
+      }  // else: a sliver at rounding level holds no mass; the centre stays the tet's centroid
     }
     if (c.mass_fraction[t] <= 0.0) return;
     const Vec3 lo = nodes.rowwise().minCoeff(), hi = nodes.rowwise().maxCoeff();
@@ -195,6 +237,7 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
   for (TetIndex t = 0; t < cage.tet_count(); ++t) {
     for (const GridKey& key : per_tet[t]) samples.push_back({key, t});
     st.tets_halved += halved[t];
+    c.sampled_tets += sampled[t];
     st.tets_short += short_of_three[t];
   }
   std::sort(samples.begin(), samples.end(), [](const Sample& x, const Sample& y) {

@@ -414,6 +414,7 @@ FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, cons
   // candidates before the (costlier) exact construction.
   std::vector<std::pair<FaceIndex, TriangleIndex>> crossing;
   std::size_t coplanar = 0;
+  std::vector<std::uint8_t> degenerate(faces.face_count(), 0);
   for (std::size_t i = 0; i < pairs.triangle.size(); ++i) {
     const TriangleIndex tri = pairs.triangle[i];
     const TetIndex tet = pairs.tet[i];
@@ -430,6 +431,8 @@ FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, cons
         negative += side == CGAL::NEGATIVE;
       }
       if (positive == 0 && negative == 0) {
+        // The triangle lies in the face's plane.
+        degenerate[faces.tet_faces(f, tet)] = 1;
         ++coplanar;
         continue;
       }
@@ -473,6 +476,7 @@ FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, cons
 
   FaceContours contours;
   contours.coplanar_pairs = coplanar;
+  contours.degenerate_faces = std::move(degenerate);
   contours.offsets.assign(faces.face_count() + 1, 0);
   for (std::size_t i = 0; i < crossing.size(); ++i) {
     if (!has_segment[i]) continue;

@@ -49,6 +49,9 @@ struct FaceContours {
   std::vector<std::array<std::uint8_t, 2>> features;
   std::vector<TriangleIndex> triangle;                 ///< per segment
   std::size_t coplanar_pairs = 0;  ///< triangles lying in a face's plane (no segment: they are the wall)
+  /// #faces: 1 where a render triangle lies in the face's plane (a surface aligned
+  /// with the cage); such a face's inside region is not well defined.
+  std::vector<std::uint8_t> degenerate_faces;
 };
 
 FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, const CageFaces& faces,

@@ -32,7 +32,12 @@ FaceRegions build_face_regions(const formats::Bundle& b) {
     for (int k = 0; k < 3; ++k) inside_nodes += e.node_inside[b.faces.nodes(k, f)];
 
     std::vector<Eigen::Matrix<double, 3, 2>> pieces;
-    if (first == last) {
+    if (e.face_degenerate[f]) {
+      // The surface lies in this face's plane: which side of it is solid, and so the
+      // face's inside region, is not defined by the contours. No region, no tile; the
+      // tets beside it get their mass from sampling (collision_proxies.cpp).
+      regions.face_class[f] = FaceClass::Degenerate;
+    } else if (first == last) {
       // No surface crosses the face: it is wholly inside or outside. The nodes agree
       // unless the surface is open or the winding numbers are borderline: majority.
       regions.face_class[f] = inside_nodes >= 2 ? FaceClass::Inside : FaceClass::Outside;
@@ -46,7 +51,24 @@ FaceRegions build_face_regions(const formats::Bundle& b) {
       }
     } else {
       regions.face_class[f] = FaceClass::Crossing;
-      for (std::uint64_t s = first; s < last; ++s) pieces.push_back(e.contour_points[s]);
+      // A segment can run along one of the face's edges (the surface crosses the
+      // face's plane exactly there). It bounds this face's region only if the solid is
+      // on the face's side of it (its direction agrees with the edge's); either way it
+      // replaces the edge over its span, and its ends are no crossings.
+      std::vector<int> along(last - first, -1);
+      for (std::uint64_t s = first; s < last; ++s) {
+        for (int k = 0; k < 3; ++k) {
+          auto on_edge_k = [&](std::uint8_t feature) {
+            return feature == k || feature == 3 + k || feature == 3 + (k + 1) % 3;
+          };
+          if (on_edge_k(e.contour_feature[s][0]) && on_edge_k(e.contour_feature[s][1])) along[s - first] = k;
+        }
+        const int k = along[s - first];
+        const Vec3 edge = corner[(k < 0 ? 0 : k + 1) % 3] - corner[k < 0 ? 0 : k];
+        if (k < 0 || (e.contour_points[s].col(1) - e.contour_points[s].col(0)).dot(edge) > 0.0) {
+          pieces.push_back(e.contour_points[s]);
+        }
+      }
       // Close the loops along the edges. On edge k (node k → k+1), each contour end
       // point toggles inside/outside; which way, the segment's orientation says
       // (inside on its left): the edge beyond the point is inside iff d × e · n > 0.
@@ -54,7 +76,14 @@ FaceRegions build_face_regions(const formats::Bundle& b) {
       for (int k = 0; k < 3; ++k) {
         const Vec3 a = corner[k], edge = corner[(k + 1) % 3] - a;
         std::vector<EdgeCrossing> crossings;
+        std::vector<std::pair<double, double>> covered;  // spans of edge k that along-edge segments replace
         for (std::uint64_t s = first; s < last; ++s) {
+          if (along[s - first] == k) {
+            double t0 = (e.contour_points[s].col(0) - a).dot(edge) / edge.squaredNorm();
+            double t1 = (e.contour_points[s].col(1) - a).dot(edge) / edge.squaredNorm();
+            covered.emplace_back(std::min(t0, t1), std::max(t0, t1));
+          }
+          if (along[s - first] >= 0) continue;
           const Vec3 direction = e.contour_points[s].col(1) - e.contour_points[s].col(0);
           for (int end = 0; end < 2; ++end) {
             const std::uint8_t feature = e.contour_feature[s][static_cast<std::size_t>(end)];
@@ -76,20 +105,31 @@ FaceRegions build_face_regions(const formats::Bundle& b) {
           if (crossings[0].t > 0.0 && from_contour != state) consistent = false;
           state = from_contour;
         }
+        // Inside spans of the edge, minus the spans along-edge segments replace.
+        std::vector<std::pair<double, double>> spans;
         double from = 0.0;
         for (const EdgeCrossing& c : crossings) {
-          if (state && c.t > from) {
-            Eigen::Matrix<double, 3, 2> piece;
-            piece << a + from * edge, a + c.t * edge;
-            pieces.push_back(piece);
-          }
+          if (state && c.t > from) spans.emplace_back(from, c.t);
           state = !state;
           from = c.t;
         }
-        if (state && from < 1.0) {
-          Eigen::Matrix<double, 3, 2> piece;
-          piece << a + from * edge, a + edge;
-          pieces.push_back(piece);
+        if (state && from < 1.0) spans.emplace_back(from, 1.0);
+        std::sort(covered.begin(), covered.end());
+        for (auto [lo, hi] : spans) {
+          for (const auto& [c0, c1] : covered) {
+            if (c1 <= lo || c0 >= hi) continue;
+            if (c0 > lo) {
+              Eigen::Matrix<double, 3, 2> piece;
+              piece << a + lo * edge, a + c0 * edge;
+              pieces.push_back(piece);
+            }
+            lo = std::max(lo, c1);
+          }
+          if (hi > lo) {
+            Eigen::Matrix<double, 3, 2> piece;
+            piece << a + lo * edge, a + hi * edge;
+            pieces.push_back(piece);
+          }
         }
       }
       if (!consistent) ++regions.inconsistent_faces;

@@ -44,12 +44,22 @@ std::uint64_t splitmix64(std::uint64_t& state) {
 
 double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 
+/// Texels beyond the face's diagonal (u + v > 1) repeat their mirror image across it,
+/// so the field continues smoothly for bilinear filtering at the face's far edge.
+template <typename T>
+void mirror_beyond_diagonal(T* tile, std::size_t res) {
+  for (std::size_t j = 0; j < res; ++j) {
+    for (std::size_t i = 0; i < res; ++i) {
+      if (i + j + 1 > res) tile[j * res + i] = tile[(res - 1 - i) * res + (res - 1 - j)];
+    }
+  }
+}
+
 /// Inside (1) / outside (0) of every texel centre of a tile. Centres on the face
 /// (u + v ≤ 1) are classified exactly: a scan line per row finds where the row crosses
 /// the region's boundary (in double), and any centre within rounding of a crossing, or
 /// any row passing within rounding of a boundary vertex, is decided by the exact winding
-/// test instead. Centres beyond the face take the class of their mirror image across the
-/// diagonal, which continues the field smoothly for bilinear filtering at the edge.
+/// test instead. Centres beyond the face are left 0: the tile mirrors them afterwards.
 std::vector<std::uint8_t> classify_texels(const FaceRegions& regions, FaceIndex f, const Vec3& n0, const Vec3& e1,
                                           const Vec3& e2, std::size_t res) {
   const Vec3 normal = e1.cross(e2);
@@ -65,11 +75,17 @@ std::vector<std::uint8_t> classify_texels(const FaceRegions& regions, FaceIndex 
     pieces.emplace_back(flat(regions.pieces[k].col(0)), flat(regions.pieces[k].col(1)));
   }
   std::vector<std::uint8_t> classes(res * res, 0);
-  std::vector<std::pair<double, int>> crossings;
-  // Centres on the face's edges (u + v = 1 happens for every even resolution) are
-  // nudged inside first, like the centres beyond the face.
+  struct Crossing {
+    double u;         ///< where the row meets the piece
+    int step;         ///< winding change when passing it
+    double tolerance; ///< rounding bound of u: grows as the piece turns parallel to the row
+    bool operator<(const Crossing& other) const { return u < other.u; }
+  };
+  std::vector<Crossing> crossings;
+  // Centres on the face's far edge (u + v = 1 happens for every even resolution) are
+  // nudged inside first; every other centre on the face is tested where it is.
   auto exact = [&](double u, double v) {
-    const Vec2 on = onto_face(u, v);
+    const Vec2 on = u + v >= 1.0 ? onto_face(u, v) : Vec2(u, v);
     return region_winding(regions, f, normal, n0 + on.x() * e1 + on.y() * e2) != 0;
   };
   const double t_length = t.norm();
@@ -89,24 +105,20 @@ std::vector<std::uint8_t> classify_texels(const FaceRegions& regions, FaceIndex 
       const Vec2 d = b - a;
       // Moving along +t past a boundary piece with direction d changes the winding by
       // −sign(t × d): the ray from a point towards +t counts the pieces ahead of it.
-      crossings.emplace_back(cross2(a - r0, d) / cross2(t, d), cross2(t, d) > 0 ? 1 : -1);
+      const double sine = std::abs(cross2(t, d)) / (t_length * d.norm());
+      crossings.push_back({cross2(a - r0, d) / cross2(t, d), cross2(t, d) > 0 ? 1 : -1, kTolerance / std::max(sine, 1e-300)});
     }
     int ahead = 0;
-    for (const auto& c : crossings) ahead += c.second;
+    for (const auto& c : crossings) ahead += c.step;
     std::sort(crossings.begin(), crossings.end());
     std::size_t next = 0;
     for (std::size_t i = 0; i < res; ++i) {
       const double u = (static_cast<double>(i) + 0.5) / static_cast<double>(res);
       if ((static_cast<double>(i) + 0.5) + (static_cast<double>(j) + 0.5) > static_cast<double>(res)) break;
-      while (next < crossings.size() && crossings[next].first < u) ahead -= crossings[next++].second;
-      const bool near_crossing = (next < crossings.size() && crossings[next].first - u <= kTolerance) ||
-                                 (next > 0 && u - crossings[next - 1].first <= kTolerance);
+      while (next < crossings.size() && crossings[next].u < u) ahead -= crossings[next++].step;
+      const bool near_crossing = (next < crossings.size() && crossings[next].u - u <= crossings[next].tolerance) ||
+                                 (next > 0 && u - crossings[next - 1].u <= crossings[next - 1].tolerance);
       classes[j * res + i] = (degenerate || near_crossing) ? exact(u, v) : ahead != 0;
-    }
-  }
-  for (std::size_t j = 0; j < res; ++j) {
-    for (std::size_t i = 0; i < res; ++i) {
-      if (i + j + 1 > res) classes[j * res + i] = classes[(res - 1 - i) * res + (res - 1 - j)];
     }
   }
   return classes;
@@ -120,6 +132,7 @@ void validate(const WallOptions& o) {
   }
   if (!(o.sdf_range_texels > 0.0)) throw Error("the wall SDF range must be positive");
   if (o.depth_divisor == 0) throw Error("the wall depth divisor must be positive");
+  if (o.detail_resolution < 4 || o.detail_resolution > 8192) throw Error("the wall detail resolution must be 4 … 8192");
 }
 
 void bake_detail(std::uint32_t resolution, std::uint64_t seed, std::vector<std::uint8_t>& height,
@@ -190,7 +203,7 @@ formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, 
   std::vector<FaceIndex> tiled;
   for (FaceIndex f = 0; f < face_count; ++f) {
     w.face_class[f] = static_cast<std::uint8_t>(regions.face_class[f]);
-    if (regions.face_class[f] == FaceClass::Crossing) {
+    if (regions.face_class[f] == FaceClass::Crossing) {  // degenerate faces get no tile
       w.face_tile[f] = static_cast<Index>(tiled.size());
       tiled.push_back(f);
     }
@@ -239,13 +252,14 @@ formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, 
                                                 : static_cast<std::uint8_t>(127 - std::lround(127.0 * t));
       }
     }
+    mirror_beyond_diagonal(sdf, res);
     bool have_hint = false;
     Vec3 hint = Vec3::Zero();
     for (std::size_t j = 0; j < dres; ++j) {
       for (std::size_t i = 0; i < dres; ++i) {
         const double u = (static_cast<double>(i) + 0.5) / static_cast<double>(dres);
         const double v = (static_cast<double>(j) + 0.5) / static_cast<double>(dres);
-        if (!inside(u, v)) continue;
+        if (static_cast<double>(i + j + 1) > static_cast<double>(dres) || !inside(u, v)) continue;
         const Vec2 on = onto_face(u, v);
         // Neighbouring texels have nearby closest points: seed each search with the last.
         const double depth = surface.distance(at(on.x(), on.y()), hint, have_hint);
@@ -254,6 +268,7 @@ formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, 
         max_depth[tile] = std::max(max_depth[tile], depth);
       }
     }
+    mirror_beyond_diagonal(&depth_m[tile * dres * dres], dres);
   });
   double deepest = 0.0;
   for (const double d : max_depth) deepest = std::max(deepest, d);

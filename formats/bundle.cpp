@@ -2,7 +2,9 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <system_error>
 
 #include "common/error.h"
@@ -53,6 +55,7 @@ void write_walls(hid_t file, const Walls& w) {
 void write_collision(hid_t file, const Collision& c) {
   const h5::Handle group = h5::create_group(file, "collision");
   h5::write_attribute(group.id(), "target_radius", c.target_radius);
+  h5::write_attribute(group.id(), "sampled_tets", static_cast<std::int64_t>(c.sampled_tets));
   write_vector(group.id(), "sphere_tet", ElementType::U32, c.sphere_tet);
   h5::write_dataset(group.id(), "sphere_barycentric", ElementType::F64, {static_cast<hsize_t>(c.sphere_tet.size()), 4},
                     c.sphere_barycentric.data());
@@ -112,6 +115,7 @@ void write_contents(hid_t file, const Bundle& b) {
     write_vector(group.id(), "contour_triangle", ElementType::U32, e.contour_triangle);
     h5::write_dataset(group.id(), "contour_feature", ElementType::U8, {static_cast<hsize_t>(e.segment_count()), 2},
                       e.contour_feature.data());
+    write_vector(group.id(), "face_degenerate", ElementType::U8, e.face_degenerate);
   }
   if (b.walls) write_walls(file, *b.walls);
   if (b.collision) write_collision(file, *b.collision);
@@ -340,6 +344,7 @@ Bundle read_bundle_unchecked_context(const std::filesystem::path& path) {
     reader.expect_shape(g.id(), where, "contour_points", {2, 3}, segments);
     e.contour_points.resize(segments);
     h5::read_dataset(g.id(), "contour_points", ElementType::F64, e.contour_points.data());
+    e.face_degenerate = reader.read_vector<std::uint8_t>(g.id(), where, "face_degenerate", ElementType::U8, faces);
     reader.expect_shape(g.id(), where, "contour_feature", {2}, segments);
     e.contour_feature.resize(segments);
     h5::read_dataset(g.id(), "contour_feature", ElementType::U8, e.contour_feature.data());
@@ -356,17 +361,29 @@ Bundle read_bundle_unchecked_context(const std::filesystem::path& path) {
     const h5::Handle g = reader.group("walls");
     const std::string where = "/walls";
     Walls w;
-    auto attribute = [&](const char* key) {
-      const auto value = h5::read_double_attribute(g.id(), key);
-      if (!value || !(*value >= 0)) throw Error(name + ": " + where + " lacks a valid '" + key + "' attribute");
+    auto integer = [&](const char* key, std::int64_t lo, std::int64_t hi) {
+      const auto value = h5::read_integer_attribute(g.id(), key);
+      if (!value || *value < lo || *value > hi) {
+        throw Error(name + ": " + where + " lacks a valid '" + key + "' attribute (an integer in " + std::to_string(lo) +
+                    " … " + std::to_string(hi) + ")");
+      }
       return *value;
     };
-    w.resolution = static_cast<std::uint32_t>(attribute("resolution"));
-    w.sdf_range_texels = attribute("sdf_range_texels");
-    w.depth_resolution = static_cast<std::uint32_t>(attribute("depth_resolution"));
-    w.depth_scale = attribute("depth_scale");
-    w.detail_resolution = static_cast<std::uint32_t>(attribute("detail_resolution"));
-    w.detail_seed = static_cast<std::uint64_t>(attribute("detail_seed"));
+    auto real = [&](const char* key) {
+      const auto value = h5::read_double_attribute(g.id(), key);
+      if (!value || !(*value > 0) || !std::isfinite(*value)) {
+        throw Error(name + ": " + where + " lacks a valid '" + key + "' attribute (a positive number)");
+      }
+      return *value;
+    };
+    w.resolution = static_cast<std::uint32_t>(integer("resolution", 1, 4096));
+    w.sdf_range_texels = real("sdf_range_texels");
+    w.depth_resolution = static_cast<std::uint32_t>(integer("depth_resolution", 1, 4096));
+    w.depth_scale = real("depth_scale");
+    w.detail_resolution = static_cast<std::uint32_t>(integer("detail_resolution", 1, 8192));
+    // The seed is a uint64 stored in an int64 attribute bit for bit.
+    w.detail_seed = static_cast<std::uint64_t>(integer("detail_seed", std::numeric_limits<std::int64_t>::min(),
+                                                       std::numeric_limits<std::int64_t>::max()));
     const auto faces = static_cast<hsize_t>(b.faces.face_count());
     w.face_class = reader.read_vector<std::uint8_t>(g.id(), where, "face_class", ElementType::U8, faces);
     w.face_tile = reader.read_vector<Index>(g.id(), where, "face_tile", ElementType::U32, faces);
@@ -391,6 +408,7 @@ Bundle read_bundle_unchecked_context(const std::filesystem::path& path) {
     const std::string where = "/collision";
     Collision c;
     c.target_radius = h5::read_double_attribute(g.id(), "target_radius").value_or(0.0);
+    c.sampled_tets = static_cast<std::uint64_t>(std::max<std::int64_t>(0, h5::read_integer_attribute(g.id(), "sampled_tets").value_or(0)));
     c.sphere_tet = reader.read_vector<TetIndex>(g.id(), where, "sphere_tet", ElementType::U32);
     const hsize_t spheres = c.sphere_tet.size();
     reader.check_range(c.sphere_tet.data(), spheres, 1, b.cage.tet_count(), where + "/sphere_tet", false);

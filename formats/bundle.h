@@ -70,6 +70,9 @@ struct Embedding {
   std::vector<Eigen::Matrix<double, 3, 2>> contour_points;  ///< per segment: its two end points [m]
   std::vector<TriangleIndex> contour_triangle;  ///< per segment: the render triangle it comes from
   std::vector<std::array<std::uint8_t, 2>> contour_feature;  ///< per segment end point: edge, node or interior
+  /// #faces: 1 where a render triangle lies in the face's plane: the face's inside
+  /// region is ambiguous there (see Walls::face_class 3).
+  std::vector<std::uint8_t> face_degenerate;
 
   [[nodiscard]] std::size_t instance_count() const { return instance_triangle.size(); }
   [[nodiscard]] std::size_t segment_count() const { return contour_triangle.size(); }
@@ -81,7 +84,7 @@ struct Embedding {
 /// is on the face, the rest of the square continues the fields so bilinear filtering
 /// is right up to the face's edges.
 struct Walls {
-  std::vector<std::uint8_t> face_class;   ///< #faces: 0 outside, 1 inside (shared material), 2 crossing
+  std::vector<std::uint8_t> face_class;   ///< #faces: 0 outside, 1 inside (shared material), 2 crossing, 3 degenerate (surface lies in the face: no tile)
   std::vector<Index> face_tile;           ///< #faces: tile of a crossing face, else kInvalidIndex
   std::vector<double> face_inside_area;   ///< #faces: area of face ∩ solid [m²] (exact geometry, double rounding)
   std::uint32_t resolution = 0;           ///< texels per tile side
@@ -111,6 +114,9 @@ struct Collision {
   std::vector<double> sphere_radius;          ///< #S [m]; target / 2^k after k halvings
   std::vector<double> mass_fraction;          ///< #T: volume(tet ∩ solid) / volume(tet)
   std::vector<Vec4> center_of_mass;           ///< #T: centroid of tet ∩ solid, barycentric (the tet's centroid if empty)
+  /// Tets next to a degenerate face, whose mass was estimated on a lattice instead
+  /// of integrated exactly.
+  std::uint64_t sampled_tets = 0;
 };
 
 struct Bundle {

@@ -149,6 +149,32 @@ TEST(Walls, TexelCentresOnTheFaceAreClassifiedExactly) {
   }
 }
 
+TEST(Walls, SurfacesLyingOnCageFacesStillVerify) {
+  // Every face of this box lies in grid planes: contours run along cage edges and
+  // triangles lie in cage faces, the degenerate cases of walls and mass.
+  const SurfaceMesh box = testing::box_surface(Vec3::Constant(-0.5), Vec3::Constant(0.5), 4);
+  const TetMesh cage = testing::grid_cage(Vec3::Constant(-1), Vec3::Constant(1), 4, 4, 4);
+  const formats::Bundle b = embed(box, cage, BakeOptions{}, "aligned box", "grid");
+  const formats::VerifyReport report = formats::verify_bundle(b);
+  for (const auto& check : report.checks) EXPECT_TRUE(check.passed) << check.name << ": " << check.detail;
+}
+
+TEST(Walls, BeyondTheDiagonalMirrorsTheFace) {
+  const formats::Bundle b = bake_plane_case(16);
+  const formats::Walls& w = *b.walls;
+  const std::size_t res = w.resolution;
+  for (std::size_t tile = 0; tile < w.tile_count(); ++tile) {
+    const std::uint8_t* t = &w.sdf[tile * res * res];
+    for (std::size_t j = 0; j < res; ++j) {
+      for (std::size_t i = 0; i < res; ++i) {
+        if (i + j + 1 > res) {
+          ASSERT_EQ(t[j * res + i], t[(res - 1 - i) * res + (res - 1 - j)]) << "tile " << tile;
+        }
+      }
+    }
+  }
+}
+
 TEST(Walls, DetailMapsAreSeededAndTileable) {
   std::vector<std::uint8_t> a, a_normal, b, b_normal, c, c_normal;
   bake_detail(64, 7, a, a_normal);

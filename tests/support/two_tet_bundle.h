@@ -57,6 +57,7 @@ inline formats::Bundle two_tet_bundle() {
   e.contour_points.push_back(segment);
   e.contour_triangle.push_back(0);
   e.contour_feature.push_back({formats::kContourInterior, formats::kContourInterior});
+  e.face_degenerate.assign(b.faces.face_count(), 0);
   return b;
 }
 
