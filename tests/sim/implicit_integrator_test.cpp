@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "tests/support/procedural.h"
@@ -108,6 +110,54 @@ TEST(ImplicitIntegrator, StableAtLargeStepsAndExtremeMaterials) {
       }
     }
   }
+}
+
+}  // namespace
+}  // namespace fissure::sim
+
+namespace fissure::sim {
+namespace {
+
+/// Static tip deflection of a clamped beam under its own weight, reached by implicit
+/// steps so large that backward Euler becomes a Newton iteration on the statics.
+double cantilever_tip_deflection(int along, int across) {
+  const double length = 4.0, side = 0.25;
+  const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(length, side, side), along, across, across);
+  ImplicitIntegrator beam(cage.rest_positions, cage.tets, Material{.density = 1000, .youngs_modulus = 1e9, .poisson_ratio = 0.3});
+  for (Index n = 0; n < cage.node_count(); ++n) {
+    if (cage.rest_positions(0, n) == 0.0) beam.pin(n);
+  }
+  StepSettings settings;
+  settings.dt = 10.0;
+  for (int i = 0; i < 40; ++i) {
+    if (beam.step(settings) != SolveStatus::Converged) return std::numeric_limits<double>::quiet_NaN();
+    beam.velocities.setZero();  // keep only the displacement: statics
+  }
+  double tip = 0.0;
+  int count = 0;
+  for (Index n = 0; n < cage.node_count(); ++n) {
+    if (cage.rest_positions(0, n) == length) {
+      tip += beam.positions(2, n) - cage.rest_positions(2, n);
+      ++count;
+    }
+  }
+  return -tip / count;
+}
+
+TEST(ImplicitIntegrator, CantileverDeflectionConvergesTowardEulerBernoulli) {
+  // w = q L⁴ / (8 E I), q = ρ g A, I = side⁴ / 12.
+  const double side = 0.25, q = 1000 * 9.81 * side * side, inertia = std::pow(side, 4) / 12.0;
+  const double expected = q * std::pow(4.0, 4) / (8.0 * 1e9 * inertia);
+  double previous_error = 1.0;
+  for (const auto& [along, across] : {std::pair{8, 1}, std::pair{16, 2}, std::pair{32, 4}}) {
+    const double w = cantilever_tip_deflection(along, across);
+    const double error = std::abs(w - expected) / expected;
+    std::printf("cantilever %d×%d×%d: tip %.5g m, Euler–Bernoulli %.5g m, relative error %.3f\n", along, across, across, w,
+                expected, error);
+    EXPECT_LT(error, previous_error);
+    previous_error = error;
+  }
+  EXPECT_LT(previous_error, 0.35);  // linear tets lock in bending; the error shrinks with refinement
 }
 
 }  // namespace
