@@ -1,0 +1,63 @@
+// Physics step cost: ms per implicit step vs tet count, direct vs conjugate-gradient
+// solver. Prints a Markdown table for BENCHMARKS.md.
+//
+//   fissure_sim_bench [--steps N]
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+#include "formats/cage_io.h"
+#include "player/sim/implicit_integrator.h"
+#include "tests/support/procedural.h"
+
+namespace {
+
+using namespace fissure;
+
+struct Case {
+  std::string name;
+  TetMesh cage;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int steps = 20;
+  if (argc == 3 && std::string(argv[1]) == "--steps") steps = std::stoi(argv[2]);
+  std::vector<Case> cases;
+  // The issue's reference beam: 4×1×1 m; grids near 1k and 10k tets.
+  cases.push_back({"beam 4×1×1 m, 13×3×3", testing::grid_cage(Vec3::Zero(), Vec3(4, 1, 1), 13, 3, 3)});
+  cases.push_back({"beam 4×1×1 m, 36×7×7", testing::grid_cage(Vec3::Zero(), Vec3(4, 1, 1), 36, 7, 7)});
+  cases.push_back({"bunny-5k-cage-987", formats::read_cage(std::string(FISSURE_BENCH_DATA_DIR) + "/cages/bunny-5k-cage-987.node").mesh});
+  cases.push_back({"bunny-5k-cage-10024", formats::read_cage(std::string(FISSURE_BENCH_DATA_DIR) + "/cages/bunny-5k-cage-10024.node").mesh});
+  std::printf("| cage | nodes | tets | direct ms/step | CG ms/step (iterations) | CG / direct |\n|---|---|---|---|---|---|\n");
+  for (const Case& c : cases) {
+    double ms[2] = {0, 0};
+    int iterations = 0;
+    for (int solver = 0; solver < 2; ++solver) {
+      sim::ImplicitIntegrator body(c.cage.rest_positions, c.cage.tets,
+                                   sim::Material{.density = 1000, .youngs_modulus = 1e6, .poisson_ratio = 0.3});
+      // Clamp the nodes at the lowest x, as the cantilever of the issue.
+      const double x_min = c.cage.rest_positions.row(0).minCoeff();
+      for (Index n = 0; n < c.cage.node_count(); ++n) {
+        if (c.cage.rest_positions(0, n) <= x_min + 1e-9) body.pin(n);
+      }
+      sim::StepSettings settings;
+      settings.solver = solver == 0 ? sim::LinearSolver::Direct : sim::LinearSolver::ConjugateGradient;
+      settings.tolerance = 1e-6;
+      body.step(settings);  // first step: symbolic analysis, excluded
+      const auto start = std::chrono::steady_clock::now();
+      int total_iterations = 0;
+      for (int i = 0; i < steps; ++i) {
+        body.step(settings);
+        total_iterations += body.last_iterations();
+      }
+      ms[solver] = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / steps;
+      if (solver == 1) iterations = total_iterations / steps;
+    }
+    std::printf("| %s | %zu | %zu | %.2f | %.2f (%d) | %.2f× |\n", c.name.c_str(), c.cage.node_count(), c.cage.tet_count(),
+                ms[0], ms[1], iterations, ms[1] / ms[0]);
+    std::fflush(stdout);
+  }
+  return 0;
+}
