@@ -2,6 +2,7 @@
 
 #include <Eigen/IterativeLinearSolvers>
 #include <array>
+#include <chrono>
 
 namespace fissure::sim {
 
@@ -81,6 +82,9 @@ void ImplicitIntegrator::build_pattern() {
 }
 
 SolveStatus ImplicitIntegrator::step(const StepSettings& s) {
+  using Clock = std::chrono::steady_clock;
+  auto seconds_since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+  auto phase_start = Clock::now();
   const double h = s.dt;
   const double alpha = m_material.rayleigh_mass, beta = m_material.rayleigh_stiffness;
   std::vector<Mat3> rotations;
@@ -91,6 +95,8 @@ SolveStatus ImplicitIntegrator::step(const StepSettings& s) {
     forces.col(n) += m_mass[n] * s.gravity - alpha * m_mass[n] * velocities.col(n);
   }
 
+  m_phase_times.forces = seconds_since(phase_start);
+  phase_start = Clock::now();
   // A = M − h D − h² K with D = −αM + βK:  A = (1 + hα) M − (hβ + h²) K.
   // b = h (f + β K v + h K v) = h (f + (β + h) K v).
   const Index rows = static_cast<Index>(m_matrix.rows());
@@ -124,6 +130,8 @@ SolveStatus ImplicitIntegrator::step(const StepSettings& s) {
     for (int a = 0; a < 3; ++a) m_matrix.coeffRef(r + a, r + a) += (1.0 + h * alpha) * m_mass[n];
   }
 
+  m_phase_times.assembly = seconds_since(phase_start);
+  phase_start = Clock::now();
   Eigen::VectorXd dv;
   if (s.solver == LinearSolver::Direct) {
     if (!m_analyzed) {
@@ -143,6 +151,7 @@ SolveStatus ImplicitIntegrator::step(const StepSettings& s) {
     m_iterations = static_cast<int>(cg.iterations());
     if (cg.info() == Eigen::NoConvergence) return SolveStatus::MaxIterations;
   }
+  m_phase_times.solve = seconds_since(phase_start);
   if (!dv.allFinite()) return SolveStatus::NonFinite;
   m_last_dv = dv;
   for (Eigen::Index n = 0; n < positions.cols(); ++n) {

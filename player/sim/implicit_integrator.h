@@ -45,6 +45,14 @@ class ImplicitIntegrator {
 
   [[nodiscard]] int last_iterations() const { return m_iterations; }
 
+  /// Wall-clock seconds of the last step's phases.
+  struct PhaseTimes {
+    double forces = 0;    ///< rotations and elastic, gravity and damping forces
+    double assembly = 0;  ///< element stiffness and the system's values
+    double solve = 0;     ///< factorization and solve, or CG
+  };
+  [[nodiscard]] const PhaseTimes& last_phase_times() const { return m_phase_times; }
+
   /// Total kinetic + elastic energy [J] (no gravity).
   [[nodiscard]] double energy() const;
 
@@ -64,6 +72,7 @@ class ImplicitIntegrator {
   Eigen::VectorXd m_last_dv;        ///< warm start for conjugate gradients
   bool m_analyzed = false;
   int m_iterations = 0;
+  PhaseTimes m_phase_times;
 };
 
 }  // namespace fissure::sim

@@ -30,9 +30,10 @@ int main(int argc, char** argv) {
   cases.push_back({"beam 4×1×1 m, 36×7×7", testing::grid_cage(Vec3::Zero(), Vec3(4, 1, 1), 36, 7, 7)});
   cases.push_back({"bunny-5k-cage-987", formats::read_cage(std::string(FISSURE_BENCH_DATA_DIR) + "/cages/bunny-5k-cage-987.node").mesh});
   cases.push_back({"bunny-5k-cage-10024", formats::read_cage(std::string(FISSURE_BENCH_DATA_DIR) + "/cages/bunny-5k-cage-10024.node").mesh});
-  std::printf("| cage | nodes | tets | direct ms/step | CG ms/step (iterations) | CG / direct |\n|---|---|---|---|---|---|\n");
+  std::printf("| cage | nodes | tets | direct ms/step | direct: forces / assembly / solve ms | CG ms/step (iterations) | CG: forces / assembly / solve ms | CG / direct |\n|---|---|---|---|---|---|---|---|\n");
   for (const Case& c : cases) {
     double ms[2] = {0, 0};
+    sim::ImplicitIntegrator::PhaseTimes phases[2];
     int iterations = 0;
     for (int solver = 0; solver < 2; ++solver) {
       sim::ImplicitIntegrator body(c.cage.rest_positions, c.cage.tets,
@@ -51,12 +52,17 @@ int main(int argc, char** argv) {
       for (int i = 0; i < steps; ++i) {
         body.step(settings);
         total_iterations += body.last_iterations();
+        phases[solver].forces += body.last_phase_times().forces / steps;
+        phases[solver].assembly += body.last_phase_times().assembly / steps;
+        phases[solver].solve += body.last_phase_times().solve / steps;
       }
       ms[solver] = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / steps;
       if (solver == 1) iterations = total_iterations / steps;
     }
-    std::printf("| %s | %zu | %zu | %.2f | %.2f (%d) | %.2f× |\n", c.name.c_str(), c.cage.node_count(), c.cage.tet_count(),
-                ms[0], ms[1], iterations, ms[1] / ms[0]);
+    std::printf("| %s | %zu | %zu | %.2f | %.2f / %.2f / %.2f | %.2f (%d) | %.2f / %.2f / %.2f | %.2f× |\n", c.name.c_str(),
+                c.cage.node_count(), c.cage.tet_count(), ms[0], 1e3 * phases[0].forces, 1e3 * phases[0].assembly,
+                1e3 * phases[0].solve, ms[1], iterations, 1e3 * phases[1].forces, 1e3 * phases[1].assembly,
+                1e3 * phases[1].solve, ms[1] / ms[0]);
     std::fflush(stdout);
   }
   return 0;
