@@ -76,6 +76,11 @@ std::size_t validate_and_orient(TetMesh& mesh, const std::string& source, std::s
   return flipped;
 }
 
+double face_area(const TetMesh& mesh, const CageFaces& faces, FaceIndex f) {
+  const Vec3 a = mesh.rest_positions.col(faces.nodes(0, f));
+  return 0.5 * (mesh.rest_positions.col(faces.nodes(1, f)) - a).cross(mesh.rest_positions.col(faces.nodes(2, f)) - a).norm();
+}
+
 CageFaces build_cage_faces(const TetMesh& mesh, const std::string& source) {
   struct Entry {
     std::array<Index, 3> key;

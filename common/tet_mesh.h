@@ -56,6 +56,9 @@ struct CageFaces {
   [[nodiscard]] bool is_boundary(FaceIndex f) const { return tets(1, f) == kInvalidIndex; }
 };
 
+/// Area [m²] of face f of the table, at the cage's rest positions.
+double face_area(const TetMesh& mesh, const CageFaces& faces, FaceIndex f);
+
 /// Builds the face table. Faces are numbered in order of their sorted node triples,
 /// so the result depends only on the cage. Throws fissure::Error if a face is shared
 /// by more than two tets (a non-manifold cage).

@@ -81,11 +81,6 @@ bool contours_closed(const Embedding& e, FaceIndex f) {
   return std::all_of(balance.begin(), balance.end(), [](const auto& entry) { return entry.second == 0; });
 }
 
-double face_area(const Bundle& b, FaceIndex f) {
-  const Vec3 a = b.cage.rest_positions.col(b.faces.nodes(0, f));
-  return 0.5 * (b.cage.rest_positions.col(b.faces.nodes(1, f)) - a).cross(b.cage.rest_positions.col(b.faces.nodes(2, f)) - a).norm();
-}
-
 VerifyCheck check_walls(const Bundle& b) {
   VerifyCheck check{"walls", true, ""};
   const Walls& w = *b.walls;
@@ -98,7 +93,7 @@ VerifyCheck check_walls(const Bundle& b) {
   };
   for (FaceIndex f = 0; f < b.faces.face_count(); ++f) {
     const bool has_contour = e.contour_offsets[f + 1] > e.contour_offsets[f];
-    const double area = face_area(b, f);
+    const double area = face_area(b.cage, b.faces, f);
     if (w.face_class[f] == 3) {
       if (!e.face_degenerate[f]) fail("face " + std::to_string(f) + " is classed degenerate but is not");
       if (w.face_tile[f] != kInvalidIndex) fail("degenerate face " + std::to_string(f) + " has a tile");
@@ -229,9 +224,9 @@ std::vector<double> covered_area(const SurfaceMesh& render, const TetMesh& cage,
   return covered;
 }
 
-double tile_inside_area(const Walls& w, FaceIndex face, double face_area) {
+double tile_inside_area(const Walls& w, FaceIndex face, double area) {
   const Index tile = w.face_tile[face];
-  if (tile == kInvalidIndex) return w.face_class[face] == 1 ? face_area : 0.0;
+  if (tile == kInvalidIndex) return w.face_class[face] == 1 ? area : 0.0;
   const std::size_t res = w.resolution;
   const std::uint8_t* sdf = &w.sdf[tile * res * res];
   std::size_t inside = 0;
@@ -242,7 +237,7 @@ double tile_inside_area(const Walls& w, FaceIndex face, double face_area) {
   }
   // Each texel covers 1/res² of the parallelogram spanned by the edges, i.e. 2/res²
   // of the face.
-  return static_cast<double>(inside) * 2.0 * face_area / static_cast<double>(res * res);
+  return static_cast<double>(inside) * 2.0 * area / static_cast<double>(res * res);
 }
 
 double enclosed_volume(const SurfaceMesh& mesh) {

@@ -37,7 +37,7 @@ std::vector<double> covered_area(const SurfaceMesh& render, const TetMesh& cage,
 /// Texel centres of a face's tile inside the face (u + v ≤ 1) whose SDF byte says
 /// inside, times the texel area: the tile's estimate of the face's inside area [m²].
 /// Faces without a tile: the face area if classed inside, else 0.
-double tile_inside_area(const Walls& walls, FaceIndex face, double face_area);
+double tile_inside_area(const Walls& walls, FaceIndex face, double area);
 
 /// Volume enclosed by a closed, outward-oriented surface (divergence theorem) [m³].
 double enclosed_volume(const SurfaceMesh& mesh);

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <fstream>
 
+#include "formats/cage_io.h"
 #include "tests/support/procedural.h"
 #include "tests/support/temp_dir.h"
 
@@ -75,19 +76,7 @@ TEST(BakeCli, ErrorsExitOneNameTheFileAndWriteNothing) {
 
   // A cage far too small for the bunny.
   TetMesh small = testing::grid_cage(Vec3(-0.05, 0.05, -0.05), Vec3(0.0, 0.1, 0.0), 2, 2, 2);
-  std::ofstream(dir / "small.node") << "";
-  {
-    std::ofstream node(dir / "small.node"), ele(dir / "small.ele");
-    node.precision(17);
-    node << small.node_count() << " 3 0 0\n";
-    for (Index i = 0; i < small.node_count(); ++i) {
-      node << i << ' ' << small.rest_positions(0, i) << ' ' << small.rest_positions(1, i) << ' ' << small.rest_positions(2, i) << '\n';
-    }
-    ele << small.tet_count() << " 4 0\n";
-    for (Index t = 0; t < small.tet_count(); ++t) {
-      ele << t << ' ' << small.tets(0, t) << ' ' << small.tets(1, t) << ' ' << small.tets(2, t) << ' ' << small.tets(3, t) << '\n';
-    }
-  }
+  formats::write_tetgen(small, dir / "small.node", dir / "small.ele");
   r = run("bake --mesh " + quoted(kMesh) + " --cage " + quoted(dir / "small.node") + " -o " + quoted(out));
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("does not cover"), std::string::npos) << r.output;

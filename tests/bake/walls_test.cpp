@@ -51,11 +51,6 @@ formats::Bundle bake_plane_case(std::uint32_t resolution) {
   return embed(c.mesh, c.cage, options, "slab", "grid");
 }
 
-double face_area(const formats::Bundle& b, FaceIndex f) {
-  const Vec3 a = b.cage.rest_positions.col(b.faces.nodes(0, f));
-  return 0.5 * (b.cage.rest_positions.col(b.faces.nodes(1, f)) - a).cross(b.cage.rest_positions.col(b.faces.nodes(2, f)) - a).norm();
-}
-
 TEST(Walls, InsideAreaOfAPlaneCutIsExact) {
   const formats::Bundle b = bake_plane_case(8);
   std::size_t checked = 0;
@@ -64,7 +59,7 @@ TEST(Walls, InsideAreaOfAPlaneCutIsExact) {
     const auto& p = b.cage.rest_positions;
     const double exact = area_below(p.col(b.faces.nodes(0, f)), p.col(b.faces.nodes(1, f)), p.col(b.faces.nodes(2, f)), 0.3);
     EXPECT_NEAR(b.walls->face_inside_area[f], exact, 1e-12) << "face " << f;
-    const bool crossing = exact > 0.0 && exact < face_area(b, f) - 1e-12;
+    const bool crossing = exact > 0.0 && exact < face_area(b.cage, b.faces, f) - 1e-12;
     EXPECT_EQ(b.walls->face_class[f], crossing ? 2 : (exact > 0.0 ? 1 : 0)) << "face " << f;
     ++checked;
   }
@@ -78,7 +73,7 @@ TEST(Walls, TileCoverageConvergesToTheExactAreaAsResolutionDoubles) {
     double total_error = 0.0;
     for (FaceIndex f = 0; f < b.faces.face_count(); ++f) {
       if (!in_middle(b, f) || b.walls->face_class[f] != 2) continue;
-      const double area = face_area(b, f);
+      const double area = face_area(b.cage, b.faces, f);
       const double error = std::abs(formats::tile_inside_area(*b.walls, f, area) - b.walls->face_inside_area[f]);
       // About one texel row along the region's boundary (contour + face edges).
       const Vec3 n0 = b.cage.rest_positions.col(b.faces.nodes(0, f));

@@ -28,11 +28,6 @@ using namespace fissure;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-double face_area(const formats::Bundle& b, FaceIndex f) {
-  const Vec3 a = b.cage.rest_positions.col(b.faces.nodes(0, f));
-  return 0.5 * (b.cage.rest_positions.col(b.faces.nodes(1, f)) - a).cross(b.cage.rest_positions.col(b.faces.nodes(2, f)) - a).norm();
-}
-
 std::uint64_t stored_bytes(const fs::path& file, const std::string& group) {
   std::uint64_t total = 0;
   for (const auto& d : formats::summarize_bundle(file).datasets) {
@@ -62,7 +57,7 @@ void wall_sweep(const SurfaceMesh& mesh, const TetMesh& cage, const fs::path& sc
     double error = 0.0, exact = 0.0;
     for (FaceIndex f = 0; f < b.faces.face_count(); ++f) {
       if (b.walls->face_tile[f] == kInvalidIndex) continue;
-      error += std::abs(formats::tile_inside_area(*b.walls, f, face_area(b, f)) - b.walls->face_inside_area[f]);
+      error += std::abs(formats::tile_inside_area(*b.walls, f, face_area(b.cage, b.faces, f)) - b.walls->face_inside_area[f]);
       exact += b.walls->face_inside_area[f];
     }
     const fs::path file = scratch / ("walls-" + std::to_string(res) + ".h5");
