@@ -1,0 +1,533 @@
+#include "formats/scene.h"
+
+// The only translation unit that sees toml++. The Debian package ships it compiled
+// (libtomlplusplus.so, TOML_HEADER_ONLY=0 via the CMake target), which compiles this
+// file several times faster than the header-only build.
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <charconv>
+#include <climits>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <initializer_list>
+#include <optional>
+#include <sstream>
+#include <utility>
+
+#include "common/error.h"
+
+namespace fissure::formats {
+namespace {
+
+std::string format_number(double value) {
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  return std::string(buffer, result.ptr);
+}
+
+std::string format_vec3(const Vec3& v) {
+  return "[" + format_number(v.x()) + ", " + format_number(v.y()) + ", " + format_number(v.z()) + "]";
+}
+
+/// "a string", "an integer", ... for type errors.
+std::string describe_type(const toml::node& node) {
+  switch (node.type()) {
+    case toml::node_type::string: return "a string";
+    case toml::node_type::integer: return "an integer";
+    case toml::node_type::floating_point: return "a floating-point number";
+    case toml::node_type::boolean: return "a boolean";
+    case toml::node_type::array: return "an array";
+    case toml::node_type::table: return "a table";
+    case toml::node_type::date: return "a date";
+    case toml::node_type::time: return "a time";
+    case toml::node_type::date_time: return "a date-time";
+    case toml::node_type::none: break;
+  }
+  return "nothing";
+}
+
+/// The value as a TOML reader would recognise it in a message.
+std::string show(const toml::node& node) {
+  if (const auto* s = node.as_string()) return "\"" + s->get() + "\"";
+  if (const auto* i = node.as_integer()) return std::to_string(i->get());
+  if (const auto* f = node.as_floating_point()) return format_number(f->get());
+  if (const auto* b = node.as_boolean()) return b->get() ? "true" : "false";
+  if (const auto* a = node.as_array()) {
+    std::string text = "[";
+    for (std::size_t i = 0; i < a->size(); ++i) text += (i ? ", " : "") + show(*a->get(i));
+    return text + "]";
+  }
+  if (node.is_table()) return "{...}";
+  return describe_type(node);
+}
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+int line_of(const toml::node& node, int fallback) {
+  const auto line = node.source().begin.line;
+  return line > 0 ? static_cast<int>(line) : fallback;
+}
+
+/// Where errors point: the file name as given, plus a line.
+class Source {
+ public:
+  explicit Source(std::string file) : m_file(std::move(file)) {}
+  [[noreturn]] void fail(int line, const std::string& message, std::string hint = {}) const {
+    throw Error(m_file + ":" + std::to_string(line) + ": " + message, std::move(hint));
+  }
+
+ private:
+  std::string m_file;
+};
+
+/// One TOML table with its dotted path (`object[0].material`) for messages and the
+/// header name (`[object.material]`) for hints.
+class Table {
+ public:
+  Table(const Source& source, const toml::table& table, std::string path, std::string header, int fallback_line)
+      : m_source(&source), m_table(&table), m_path(std::move(path)), m_header(std::move(header)),
+        m_line(formats::line_of(table, fallback_line)) {}
+
+  [[nodiscard]] int line() const { return m_line; }
+  [[nodiscard]] const std::string& path() const { return m_path; }
+  [[nodiscard]] std::string key_path(std::string_view key) const {
+    return m_path.empty() ? std::string(key) : m_path + "." + std::string(key);
+  }
+  [[nodiscard]] const toml::node* find(std::string_view key) const { return m_table->get(key); }
+  [[nodiscard]] int line_of(const toml::node& node) const { return formats::line_of(node, m_line); }
+  [[noreturn]] void fail(int line, const std::string& message, std::string hint = {}) const {
+    m_source->fail(line, message, std::move(hint));
+  }
+
+  /// Unknown keys are errors (a typo would otherwise silently keep a default). The
+  /// earliest one in the file is reported.
+  void allow_only(std::initializer_list<std::string_view> allowed) const {
+    const toml::key* unknown = nullptr;
+    for (const auto& [key, node] : *m_table) {
+      if (std::find(allowed.begin(), allowed.end(), key.str()) != allowed.end()) continue;
+      if (!unknown || key.source().begin.line < unknown->source().begin.line) unknown = &key;
+    }
+    if (!unknown) return;
+    std::string hint;
+    std::size_t best = 3;
+    for (const auto candidate : allowed) {
+      const std::size_t distance = edit_distance(unknown->str(), candidate);
+      if (distance < best && distance < unknown->str().size()) {
+        best = distance;
+        hint = "did you mean '" + std::string(candidate) + "'? ";
+      }
+    }
+    hint += "allowed keys " + (m_header.empty() ? std::string("at the top level") : "in " + m_header) + ": ";
+    for (auto it = allowed.begin(); it != allowed.end(); ++it) hint += (it == allowed.begin() ? "" : ", ") + std::string(*it);
+    const int line = unknown->source().begin.line > 0 ? static_cast<int>(unknown->source().begin.line) : m_line;
+    fail(line, "unknown key " + key_path(unknown->str()), hint);
+  }
+
+  [[noreturn]] void fail_missing(std::string_view key, std::string_view example) const {
+    fail(m_line, key_path(key) + " is missing",
+         "add " + std::string(example) + " to " + (m_header.empty() ? std::string("the file") : m_header));
+  }
+
+  /// A finite number (integers accepted) at `node`, named `path` in errors.
+  double number_at(const toml::node& node, const std::string& path) const {
+    double value = 0;
+    if (const auto* i = node.as_integer()) {
+      value = static_cast<double>(i->get());
+    } else if (const auto* f = node.as_floating_point()) {
+      value = f->get();
+    } else {
+      fail(line_of(node), path + " must be a number, got " + describe_type(node) + " (" + show(node) + ")",
+           "write a number without quotes, e.g. " + last_key(path) + " = 0.5");
+    }
+    if (!std::isfinite(value)) {
+      fail(line_of(node), path + " = " + show(node) + " is not finite", "use a finite number");
+    }
+    return value;
+  }
+
+  /// Reads `key` if present and checks it with `ok`; `allowed` describes the range.
+  template <typename Ok>
+  bool read_number(std::string_view key, double& out, Ok ok, std::string_view allowed) const {
+    const toml::node* node = find(key);
+    if (!node) return false;
+    const double value = number_at(*node, key_path(key));
+    if (!ok(value)) fail(line_of(*node), key_path(key) + " = " + show(*node) + " is out of range", "allowed: " + std::string(allowed));
+    out = value;
+    return true;
+  }
+
+  template <typename Ok>
+  double require_number(std::string_view key, Ok ok, std::string_view allowed, std::string_view example) const {
+    double value = 0;
+    if (!read_number(key, value, ok, allowed)) fail_missing(key, example);
+    return value;
+  }
+
+  std::int64_t integer_at(const toml::node& node, const std::string& path) const {
+    const auto* i = node.as_integer();
+    if (!i) {
+      fail(line_of(node), path + " must be an integer, got " + describe_type(node) + " (" + show(node) + ")",
+           "write a whole number without a decimal point or quotes");
+    }
+    return i->get();
+  }
+
+  bool read_integer(std::string_view key, int& out, std::int64_t min, std::int64_t max, std::string_view allowed) const {
+    const toml::node* node = find(key);
+    if (!node) return false;
+    const std::int64_t value = integer_at(*node, key_path(key));
+    if (value < min || value > max) {
+      fail(line_of(*node), key_path(key) + " = " + show(*node) + " is out of range", "allowed: " + std::string(allowed));
+    }
+    out = static_cast<int>(value);
+    return true;
+  }
+
+  bool read_bool(std::string_view key, bool& out) const {
+    const toml::node* node = find(key);
+    if (!node) return false;
+    const auto* b = node->as_boolean();
+    if (!b) {
+      fail(line_of(*node), key_path(key) + " must be true or false, got " + describe_type(*node) + " (" + show(*node) + ")",
+           "write true or false without quotes");
+    }
+    out = b->get();
+    return true;
+  }
+
+  std::optional<std::string> read_string(std::string_view key) const {
+    const toml::node* node = find(key);
+    if (!node) return std::nullopt;
+    const auto* s = node->as_string();
+    if (!s) {
+      fail(line_of(*node), key_path(key) + " must be a string, got " + describe_type(*node) + " (" + show(*node) + ")",
+           "put the value in double quotes");
+    }
+    return s->get();
+  }
+
+  template <typename E>
+  bool read_choice(std::string_view key, E& out, std::initializer_list<std::pair<std::string_view, E>> choices) const {
+    const toml::node* node = find(key);
+    if (!node) return false;
+    std::string valid;
+    for (const auto& [name, value] : choices) valid += (valid.empty() ? "\"" : ", \"") + std::string(name) + "\"";
+    const auto* s = node->as_string();
+    if (!s) fail(line_of(*node), key_path(key) + " must be a string, got " + describe_type(*node), "one of " + valid);
+    for (const auto& [name, value] : choices) {
+      if (s->get() == name) {
+        out = value;
+        return true;
+      }
+    }
+    fail(line_of(*node), key_path(key) + " = " + show(*node) + " is not a valid choice", "one of " + valid);
+  }
+
+  Vec3 vec3_at(const toml::node& node, const std::string& path) const {
+    const auto* array = node.as_array();
+    const std::string hint = "write three numbers, e.g. " + last_key(path) + " = [0, 0, 1]";
+    if (!array) fail(line_of(node), path + " must be an array of 3 numbers, got " + describe_type(node) + " (" + show(node) + ")", hint);
+    if (array->size() != 3) {
+      fail(line_of(node), path + " must have 3 components, got " + std::to_string(array->size()) + " (" + show(node) + ")", hint);
+    }
+    Vec3 v;
+    for (int k = 0; k < 3; ++k) v[k] = number_at(*array->get(static_cast<std::size_t>(k)), path + "[" + std::to_string(k) + "]");
+    return v;
+  }
+
+  bool read_vec3(std::string_view key, Vec3& out) const {
+    const toml::node* node = find(key);
+    if (!node) return false;
+    out = vec3_at(*node, key_path(key));
+    return true;
+  }
+
+  Vec3 require_vec3(std::string_view key, std::string_view example) const {
+    Vec3 v = Vec3::Zero();
+    if (!read_vec3(key, v)) fail_missing(key, example);
+    return v;
+  }
+
+  /// A sub-table (`[a.b]` or `b = { ... }`), if present.
+  std::optional<Table> sub_table(std::string_view key, std::string header) const {
+    const toml::node* node = find(key);
+    if (!node) return std::nullopt;
+    const auto* table = node->as_table();
+    if (!table) {
+      fail(line_of(*node), key_path(key) + " must be a table, got " + describe_type(*node) + " (" + show(*node) + ")",
+           "write it as a " + header + " section or as " + std::string(key) + " = { ... }");
+    }
+    return Table(*m_source, *table, key_path(key), std::move(header), line_of(*node));
+  }
+
+  /// Elements of an array of tables (`[[a.b]]`), named `path[i]` in messages.
+  std::vector<Table> table_array(std::string_view key, const std::string& header) const {
+    std::vector<Table> tables;
+    const toml::node* node = find(key);
+    if (!node) return tables;
+    const auto* array = node->as_array();
+    const std::string hint = "write a [" + header + "] section (double brackets) for each one";
+    if (!array) fail(line_of(*node), key_path(key) + " must be an array of tables, got " + describe_type(*node), hint);
+    for (std::size_t i = 0; i < array->size(); ++i) {
+      const toml::node& element = *array->get(i);
+      const std::string path = key_path(key) + "[" + std::to_string(i) + "]";
+      const auto* table = element.as_table();
+      if (!table) fail(line_of(element), path + " must be a table, got " + describe_type(element), hint);
+      tables.emplace_back(*m_source, *table, path, "[" + header + "]", line_of(element));
+    }
+    return tables;
+  }
+
+ private:
+  static std::string last_key(const std::string& path) {
+    std::string key = path.substr(path.rfind('.') == std::string::npos ? 0 : path.rfind('.') + 1);
+    return key.substr(0, key.find('['));
+  }
+
+  const Source* m_source;
+  const toml::table* m_table;
+  std::string m_path;
+  std::string m_header;
+  int m_line;
+};
+
+// Range predicates shared by many keys.
+constexpr auto kPositive = [](double v) { return v > 0; };
+constexpr auto kNonNegative = [](double v) { return v >= 0; };
+constexpr auto kUnit = [](double v) { return v >= 0 && v <= 1; };
+
+void read_contact(const Table& t, double& restitution, double& friction) {
+  t.read_number("restitution", restitution, kUnit, "0 <= restitution <= 1");
+  t.read_number("friction", friction, kNonNegative, "friction >= 0 (Coulomb coefficient)");
+}
+
+/// min and max of an axis-aligned box, both required, min < max in every component.
+void read_box_corners(const Table& t, Vec3& min, Vec3& max) {
+  min = t.require_vec3("min", "min = [x, y, z]");
+  max = t.require_vec3("max", "max = [x, y, z]");
+  for (int k = 0; k < 3; ++k) {
+    if (!(min[k] < max[k])) {
+      t.fail(t.line_of(*t.find("max")),
+             t.key_path("max") + " = " + format_vec3(max) + " is not above " + t.key_path("min") + " = " + format_vec3(min) +
+                 " in " + std::string(1, "xyz"[k]),
+             "a box needs min < max in every component [m]");
+    }
+  }
+}
+
+void read_solver(const Table& t, SceneSolverSettings& s) {
+  t.allow_only({"dt", "min_dt", "solver", "tolerance", "max_iterations", "stiffness", "threads", "max_splits_per_step"});
+  t.read_number("dt", s.dt, [](double v) { return v > 0 && v <= 1; }, "0 < dt <= 1 [s]");
+  t.read_number("min_dt", s.min_dt, [&](double v) { return v >= 0 && v <= s.dt; },
+                "0 <= min_dt <= dt (= " + format_number(s.dt) + ") [s]; 0 means a fixed step");
+  t.read_choice("solver", s.solver, {{"direct", SceneSolver::Direct}, {"cg", SceneSolver::ConjugateGradient}});
+  t.read_number("tolerance", s.tolerance, [](double v) { return v > 0 && v < 1; }, "0 < tolerance < 1 (relative residual)");
+  t.read_integer("max_iterations", s.max_iterations, 1, INT_MAX, "an integer >= 1");
+  t.read_choice("stiffness", s.stiffness, {{"warped", SceneStiffness::Warped}, {"exact", SceneStiffness::Exact}});
+  t.read_integer("threads", s.threads, 0, INT_MAX, "an integer >= 0 (0 = all cores)");
+  t.read_integer("max_splits_per_step", s.max_splits_per_step, 0, INT_MAX, "an integer >= 0");
+}
+
+void read_features(const Table& t, SceneFeatures& f) {
+  t.allow_only({"fracture", "collisions", "self_collision", "collision_mode", "mass_weighting"});
+  t.read_bool("fracture", f.fracture);
+  t.read_bool("collisions", f.collisions);
+  t.read_bool("self_collision", f.self_collision);
+  t.read_choice("collision_mode", f.collision_mode,
+                {{"spheres", SceneCollisionMode::Spheres}, {"vertices", SceneCollisionMode::Vertices}});
+  t.read_bool("mass_weighting", f.mass_weighting);
+}
+
+void read_environment(const Table& t, Scene& scene) {
+  t.allow_only({"gravity", "ground", "box", "sphere"});
+  t.read_vec3("gravity", scene.gravity);
+  if (const auto ground = t.sub_table("ground", "[environment.ground]")) {
+    ground->allow_only({"normal", "offset", "restitution", "friction"});
+    SceneGround& g = scene.ground;
+    g.enabled = true;
+    if (ground->read_vec3("normal", g.normal)) {
+      if (!(g.normal.norm() > 0)) {
+        ground->fail(ground->line_of(*ground->find("normal")), ground->key_path("normal") + " = " + format_vec3(g.normal) + " is zero",
+                     "the normal points out of the ground, e.g. [0, 0, 1]; any non-zero length");
+      }
+      g.normal.normalize();
+    }
+    ground->read_number("offset", g.offset, [](double) { return true; }, "any finite number [m]");
+    read_contact(*ground, g.restitution, g.friction);
+  }
+  for (const Table& b : t.table_array("box", "[environment.box]")) {
+    b.allow_only({"min", "max", "restitution", "friction"});
+    SceneBox& box = scene.boxes.emplace_back();
+    read_box_corners(b, box.min, box.max);
+    read_contact(b, box.restitution, box.friction);
+  }
+  for (const Table& s : t.table_array("sphere", "[environment.sphere]")) {
+    s.allow_only({"center", "radius", "restitution", "friction"});
+    SceneSphere& sphere = scene.spheres.emplace_back();
+    sphere.center = s.require_vec3("center", "center = [x, y, z]");
+    sphere.radius = s.require_number("radius", kPositive, "radius > 0 [m]", "radius = 0.5");
+    read_contact(s, sphere.restitution, sphere.friction);
+  }
+}
+
+void read_material(const Table& t, SceneMaterial& m) {
+  t.allow_only({"density", "youngs_modulus", "poisson_ratio", "toughness", "rayleigh_mass", "rayleigh_stiffness",
+                "restitution", "friction"});
+  t.read_number("density", m.density, kPositive, "density > 0 [kg/m^3]");
+  t.read_number("youngs_modulus", m.youngs_modulus, kPositive, "youngs_modulus > 0 [Pa]");
+  t.read_number("poisson_ratio", m.poisson_ratio, [](double v) { return v >= 0 && v < 0.5; }, "0 <= poisson_ratio < 0.5");
+  if (const toml::node* node = t.find("toughness")) {
+    // The one value that may be infinite: "inf" (or TOML's inf) means never fractures.
+    const std::string path = t.key_path("toughness");
+    const std::string allowed = "a number >= 0 [N], or \"inf\" for an object that never fractures";
+    if (const auto* s = node->as_string()) {
+      if (s->get() != "inf") t.fail(t.line_of(*node), path + " = " + show(*node) + " is not a number", allowed);
+      m.toughness = std::numeric_limits<double>::infinity();
+    } else if (const auto* f = node->as_floating_point(); f && std::isinf(f->get())) {
+      if (f->get() < 0) t.fail(t.line_of(*node), path + " = " + show(*node) + " is out of range", "allowed: " + allowed);
+      m.toughness = f->get();
+    } else {
+      t.read_number("toughness", m.toughness, kNonNegative, allowed);
+    }
+  }
+  t.read_number("rayleigh_mass", m.rayleigh_mass, kNonNegative, "rayleigh_mass >= 0 [1/s]");
+  t.read_number("rayleigh_stiffness", m.rayleigh_stiffness, kNonNegative, "rayleigh_stiffness >= 0 [s]");
+  read_contact(t, m.restitution, m.friction);
+}
+
+void read_pin(const Table& t, SceneObject& object) {
+  t.allow_only({"box", "nodes"});
+  const toml::node* box_node = t.find("box");
+  const toml::node* nodes_node = t.find("nodes");
+  const std::string hint = "each [[object.pin]] holds either box = { min = [..], max = [..] } or nodes = [i, j, ...]";
+  if (box_node && nodes_node) t.fail(t.line(), t.path() + " has both box and nodes", hint);
+  if (!box_node && !nodes_node) t.fail(t.line(), t.path() + " has neither box nor nodes", hint);
+  if (const auto box = t.sub_table("box", "object.pin.box")) {
+    box->allow_only({"min", "max"});
+    ScenePinBox& pin = object.pin_boxes.emplace_back();
+    read_box_corners(*box, pin.min, pin.max);
+    return;
+  }
+  const auto* array = nodes_node->as_array();
+  if (!array) {
+    t.fail(t.line_of(*nodes_node), t.key_path("nodes") + " must be an array of node indices, got " + describe_type(*nodes_node),
+           "write nodes = [0, 17, 42]");
+  }
+  for (std::size_t i = 0; i < array->size(); ++i) {
+    const toml::node& element = *array->get(i);
+    const std::string path = t.key_path("nodes") + "[" + std::to_string(i) + "]";
+    const std::int64_t index = t.integer_at(element, path);
+    if (index < 0 || index >= static_cast<std::int64_t>(kInvalidIndex)) {
+      t.fail(t.line_of(element), path + " = " + show(element) + " is out of range",
+             "node indices are 0-based cage node numbers, >= 0");
+    }
+    object.pin_nodes.push_back(static_cast<Index>(index));
+  }
+}
+
+void read_object(const Table& t, const std::filesystem::path& folder, SceneObject& object) {
+  t.allow_only({"name", "bundle", "translation", "rotation", "scale", "velocity", "angular_velocity", "material", "pin"});
+  object.line = t.line();
+  const auto bundle = t.read_string("bundle");
+  if (!bundle) t.fail_missing("bundle", "bundle = \"path/to/asset.h5\"");
+  if (bundle->empty()) t.fail(t.line_of(*t.find("bundle")), t.key_path("bundle") + " is empty", "the path of a bundle written by fissure-bake");
+  const std::filesystem::path path(*bundle);
+  object.bundle = path.is_absolute() ? path : (folder / path).lexically_normal();
+  object.name = t.read_string("name").value_or(path.stem().string());
+  t.read_vec3("translation", object.translation);
+  if (const auto rotation = t.sub_table("rotation", "object.rotation")) {
+    rotation->allow_only({"axis", "degrees"});
+    rotation->read_number("degrees", object.rotation_degrees, [](double) { return true; }, "any finite angle [degrees]");
+    if (rotation->read_vec3("axis", object.rotation_axis)) {
+      if (object.rotation_axis.norm() > 0) {
+        object.rotation_axis.normalize();
+      } else if (object.rotation_degrees != 0) {
+        rotation->fail(rotation->line_of(*rotation->find("axis")),
+                       rotation->key_path("axis") + " = " + format_vec3(object.rotation_axis) + " is zero",
+                       "a rotation by a non-zero angle needs a non-zero axis, e.g. [0, 0, 1]");
+      } else {
+        object.rotation_axis = Vec3::UnitZ();
+      }
+    }
+  }
+  t.read_number("scale", object.scale, kPositive, "scale > 0 (uniform)");
+  t.read_vec3("velocity", object.velocity);
+  t.read_vec3("angular_velocity", object.angular_velocity);
+  if (const auto material = t.sub_table("material", "[object.material]")) read_material(*material, object.material);
+  for (const Table& pin : t.table_array("pin", "[object.pin]")) read_pin(pin, object);
+}
+
+void read_projectile(const Table& t, SceneProjectile& p) {
+  t.allow_only({"radius", "mass", "position", "velocity", "launch_time", "restitution", "friction"});
+  p.line = t.line();
+  p.radius = t.require_number("radius", kPositive, "radius > 0 [m]", "radius = 0.05");
+  p.mass = t.require_number("mass", kPositive, "mass > 0 [kg]", "mass = 1.0");
+  p.position = t.require_vec3("position", "position = [x, y, z]");
+  p.velocity = t.require_vec3("velocity", "velocity = [vx, vy, vz]");
+  t.read_number("launch_time", p.launch_time, kNonNegative, "launch_time >= 0 [s]");
+  read_contact(t, p.restitution, p.friction);
+}
+
+}  // namespace
+
+Scene parse_scene(std::string_view text, const std::filesystem::path& file_for_messages) {
+  const std::string file = file_for_messages.string();
+  toml::table root;
+  try {
+    root = toml::parse(text, file);
+  } catch (const toml::parse_error& e) {
+    const auto& begin = e.source().begin;
+    throw Error(file + ":" + std::to_string(begin.line) + ":" + std::to_string(begin.column) +
+                    ": TOML syntax error: " + std::string(e.description()),
+                "see docs/scene-example.toml for the layout and https://toml.io for the syntax");
+  }
+
+  const Source source(file);
+  const Table top(source, root, "", "", 1);
+  top.allow_only({"solver", "features", "environment", "object", "projectile"});
+
+  Scene scene;
+  scene.file = file_for_messages;
+  if (const auto solver = top.sub_table("solver", "[solver]")) read_solver(*solver, scene.solver);
+  if (const auto features = top.sub_table("features", "[features]")) read_features(*features, scene.features);
+  if (const auto environment = top.sub_table("environment", "[environment]")) read_environment(*environment, scene);
+  const std::filesystem::path folder = file_for_messages.parent_path();
+  for (const Table& object : top.table_array("object", "[object]")) read_object(object, folder, scene.objects.emplace_back());
+  if (scene.objects.empty()) {
+    source.fail(1, "object: the scene has no [[object]]", "add at least one [[object]] section with bundle = \"path/to/asset.h5\"");
+  }
+  for (const Table& projectile : top.table_array("projectile", "[projectile]")) read_projectile(projectile, scene.projectiles.emplace_back());
+  return scene;
+}
+
+Scene read_scene(const std::filesystem::path& file) {
+  std::error_code ec;
+  if (!std::filesystem::exists(file, ec)) {
+    throw Error(file.string() + ": file not found", "check the path; relative paths are resolved from the working directory");
+  }
+  if (std::filesystem::is_directory(file, ec)) throw Error(file.string() + ": is a directory, not a scene file");
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw Error(file.string() + ": cannot open the file for reading");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return parse_scene(buffer.str(), file);
+}
+
+}  // namespace fissure::formats

@@ -1,0 +1,141 @@
+#pragma once
+/// Scene files for the player: which bundles to load, where, with which material, the
+/// static environment, projectiles and solver settings. TOML, documented key by key in
+/// docs/scene-example.toml. Units are SI throughout (m, kg, s, N, Pa).
+///
+/// The reader validates everything it can without loading bundles: unknown keys, wrong
+/// types, out-of-range values. Every error is a fissure::Error whose message starts with
+/// "<file>:<line>:" and names the full dotted key (`object[0].material.poisson_ratio`);
+/// the hint says what is allowed. Whether bundles exist, and whether pinned node indices
+/// fit them, is the app's check: it is the one that opens them.
+///
+/// The TOML parser stays inside scene.cpp; this header needs only Eigen and std.
+
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/types.h"
+
+namespace fissure::formats {
+
+/// Material of one object. Elastic constants feed the corotated linear model.
+struct SceneMaterial {
+  double density = 1000;          ///< [kg/m³], > 0
+  double youngs_modulus = 1e6;    ///< [Pa], > 0
+  double poisson_ratio = 0.3;     ///< [-], in [0, 0.5)
+  /// [N] threshold on the largest eigenvalue of a node's separation tensor; ≥ 0.
+  /// Infinity (the default) means the object never fractures.
+  double toughness = std::numeric_limits<double>::infinity();
+  double rayleigh_mass = 0;       ///< [1/s] mass-proportional damping α (C = αM + βK), ≥ 0
+  double rayleigh_stiffness = 0;  ///< [s] stiffness-proportional damping β, ≥ 0
+  double restitution = 0.2;       ///< [-] in [0, 1]
+  double friction = 0.5;          ///< [-] Coulomb coefficient, ≥ 0
+};
+
+/// Axis-aligned box in world coordinates (after the object's transform); the nodes of
+/// the object inside it are fixed in place.
+struct ScenePinBox {
+  Vec3 min = Vec3::Zero();  ///< [m]
+  Vec3 max = Vec3::Zero();  ///< [m], > min in every component
+};
+
+/// One bundle placed in the world. The transform applies scale, then rotation, then
+/// translation to the bundle's rest positions.
+struct SceneObject {
+  std::string name;                 ///< for logs and the UI; defaults to the bundle's file stem
+  std::filesystem::path bundle;     ///< resolved against the scene file's folder (unless absolute)
+  Vec3 translation = Vec3::Zero();  ///< [m]
+  Vec3 rotation_axis = Vec3::UnitZ();  ///< unit length (normalized by the reader)
+  double rotation_degrees = 0;      ///< [°] right-handed about rotation_axis
+  double scale = 1;                 ///< [-] uniform, > 0
+  Vec3 velocity = Vec3::Zero();     ///< [m/s] initial, of every node
+  Vec3 angular_velocity = Vec3::Zero();  ///< [rad/s] initial, about the object's rest centroid
+  SceneMaterial material;
+  std::vector<ScenePinBox> pin_boxes;  ///< in world coordinates after the transform
+  std::vector<Index> pin_nodes;        ///< cage node indices, concatenated over all [[object.pin]]
+  int line = 0;                        ///< line of the object's [[object]] header, for app errors
+};
+
+/// Static axis-aligned box obstacle.
+struct SceneBox {
+  Vec3 min = Vec3::Zero();  ///< [m]
+  Vec3 max = Vec3::Zero();  ///< [m], > min in every component
+  double restitution = 0.2;
+  double friction = 0.5;
+};
+
+/// Static sphere obstacle.
+struct SceneSphere {
+  Vec3 center = Vec3::Zero();  ///< [m]
+  double radius = 0;           ///< [m], > 0
+  double restitution = 0.2;
+  double friction = 0.5;
+};
+
+/// Infinite static plane n·x = offset; the solid side is n·x < offset.
+struct SceneGround {
+  bool enabled = false;           ///< true when the scene has an [environment.ground] table
+  Vec3 normal = Vec3::UnitZ();    ///< unit length (normalized by the reader)
+  double offset = 0;              ///< [m]
+  double restitution = 0.2;
+  double friction = 0.5;
+};
+
+/// Rigid sphere launched at the objects at launch_time.
+struct SceneProjectile {
+  Vec3 position = Vec3::Zero();  ///< [m] at launch_time
+  Vec3 velocity = Vec3::Zero();  ///< [m/s] at launch_time
+  double radius = 0;             ///< [m], > 0
+  double mass = 0;               ///< [kg], > 0
+  double launch_time = 0;        ///< [s] simulation time of the launch, ≥ 0
+  double restitution = 0.5;
+  double friction = 0.3;
+  int line = 0;                  ///< line of the [[projectile]] header
+};
+
+enum class SceneSolver { Direct, ConjugateGradient };
+enum class SceneStiffness { Warped, Exact };
+enum class SceneCollisionMode { Spheres, Vertices };
+
+struct SceneSolverSettings {
+  double dt = 1.0 / 240;  ///< [s] time step (the largest one when adaptive), in (0, 1]
+  double min_dt = 0;      ///< [s] 0 = fixed dt; else adaptive between min_dt and dt
+  SceneSolver solver = SceneSolver::ConjugateGradient;
+  double tolerance = 1e-6;   ///< [-] relative residual of the linear solve, in (0, 1)
+  int max_iterations = 500;  ///< CG iterations per solve, ≥ 1
+  SceneStiffness stiffness = SceneStiffness::Warped;  ///< stiffness-warped or exact corotated tangent
+  int threads = 0;               ///< 0 = all cores
+  int max_splits_per_step = 64;  ///< fracture splits per step, ≥ 0 (0 = none)
+};
+
+struct SceneFeatures {
+  bool fracture = false;
+  bool collisions = true;
+  bool self_collision = false;
+  SceneCollisionMode collision_mode = SceneCollisionMode::Spheres;
+  bool mass_weighting = true;
+};
+
+struct Scene {
+  std::filesystem::path file;  ///< the scene file as given to the reader
+  SceneSolverSettings solver;
+  SceneFeatures features;
+  Vec3 gravity = Vec3(0, 0, -9.81);  ///< [m/s²]
+  SceneGround ground;
+  std::vector<SceneBox> boxes;
+  std::vector<SceneSphere> spheres;
+  std::vector<SceneObject> objects;  ///< at least one
+  std::vector<SceneProjectile> projectiles;
+};
+
+/// Reads and validates a scene file. Throws fissure::Error.
+Scene read_scene(const std::filesystem::path& file);
+
+/// Same, from text already in memory (tests). `file_for_messages` prefixes every error
+/// and is the base that relative bundle paths are resolved against.
+Scene parse_scene(std::string_view text, const std::filesystem::path& file_for_messages);
+
+}  // namespace fissure::formats
