@@ -3,6 +3,8 @@
 #include <Eigen/LU>
 #include <Eigen/SVD>
 #include <cmath>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "common/error.h"
 #include "common/tet_mesh.h"
@@ -26,18 +28,29 @@ void validate(const Material& m, const std::string& where) {
   }
 }
 
-Mat3 polar_rotation(const Mat3& F) {
+SignedSvd signed_svd(const Mat3& F) {
   const Eigen::JacobiSVD<Mat3> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Mat3 U = svd.matrixU();
-  const Mat3 V = svd.matrixV();
-  // A reflection (inverted tet) goes onto the smallest singular value, which Eigen
-  // sorts last: Q = U diag(1, 1, −1) Vᵀ is then the closest proper rotation.
-  if ((U * V.transpose()).determinant() < 0.0) U.col(2) *= -1.0;
-  return U * V.transpose();
+  SignedSvd out{svd.matrixU(), svd.matrixV(), svd.singularValues()};
+  // Make U and V proper rotations. A reflection (inverted tet) goes onto the smallest
+  // singular value, which Eigen sorts last: U Vᵀ is then the closest proper rotation.
+  if (out.U.determinant() < 0.0) {
+    out.U.col(2) *= -1.0;
+    out.sigma[2] *= -1.0;
+  }
+  if (out.V.determinant() < 0.0) {
+    out.V.col(2) *= -1.0;
+    out.sigma[2] *= -1.0;
+  }
+  return out;
+}
+
+Mat3 polar_rotation(const Mat3& F) {
+  const SignedSvd svd = signed_svd(F);
+  return svd.U * svd.V.transpose();
 }
 
 CorotatedElasticity::CorotatedElasticity(const Matrix3Xd& rest, const Matrix4Xu& tets, const Material& material)
-    : m_tets(tets), m_rest(rest), m_mu(material.mu()), m_lambda(material.lambda()) {
+    : m_tets(tets), m_mu(material.mu()), m_lambda(material.lambda()) {
   validate(material);
   m_gradients.resize(static_cast<std::size_t>(tets.cols()));
   m_volume.resize(static_cast<std::size_t>(tets.cols()));
@@ -84,13 +97,16 @@ void CorotatedElasticity::rotations(const Matrix3Xd& x, std::vector<Mat3>& out) 
   for (TetIndex t = 0; t < tet_count(); ++t) out[t] = polar_rotation(deformation_gradient(x, t));
 }
 
+Mat3 CorotatedElasticity::stress(const Mat3& Q, const Mat3& F) const {
+  const Mat3 S = Q.transpose() * F;
+  const Mat3 strain = 0.5 * (S + S.transpose()) - Mat3::Identity();
+  return 2.0 * m_mu * strain + m_lambda * strain.trace() * Mat3::Identity();
+}
+
 void CorotatedElasticity::add_forces(const Matrix3Xd& x, const std::vector<Mat3>& rotations, Matrix3Xd& out) const {
   for (TetIndex t = 0; t < tet_count(); ++t) {
     const Mat3& Q = rotations[t];
-    const Mat3 S = Q.transpose() * deformation_gradient(x, t);
-    const Mat3 strain = 0.5 * (S + S.transpose()) - Mat3::Identity();
-    const Mat3 stress = 2.0 * m_mu * strain + m_lambda * strain.trace() * Mat3::Identity();
-    const Mat3 P = Q * stress;
+    const Mat3 P = Q * stress(Q, deformation_gradient(x, t));
     for (int i = 0; i < 4; ++i) out.col(m_tets(i, t)) -= m_volume[t] * P * m_gradients[t].col(i);
   }
 }
@@ -110,6 +126,72 @@ Mat12 CorotatedElasticity::stiffness(TetIndex t, const Mat3& Q) const {
     }
   }
   return K;
+}
+
+Mat12 CorotatedElasticity::exact_stiffness(TetIndex t, const Matrix3Xd& x, bool project) const {
+  const Mat3 F = deformation_gradient(x, t);
+  return exact_stiffness(t, F, signed_svd(F), project);
+}
+
+Mat12 CorotatedElasticity::exact_stiffness(TetIndex t, const Mat3& F, const SignedSvd& svd, bool project) const {
+  // ∂P/∂F as a 9×9 matrix on column-major vec(F) (index a + 3b):
+  //   H = 2μ I + λ r rᵀ + (λ (I₁ − 3) − 2μ) ∂vec(R)/∂vec(F),   r = vec(R), I₁ = tr S = Σσ,
+  // and ∂R/∂F = Σ_k 2/(σᵢ + σⱼ) q_k q_kᵀ over the twists q_k = U T_k Vᵀ/√2 ({i, j, k}
+  // a permutation). The twists are orthogonal to r and to each other, so H's eigenvalues
+  // are 2μ (five), 2μ + 3λ (along r) and e_k = 2μ + (λ(I₁ − 3) − 2μ) 2/(σᵢ + σⱼ):
+  // projecting H to semi-definite only clamps the e_k.
+  (void)F;
+  const Mat3 R = svd.U * svd.V.transpose();
+  const Vec3& s = svd.sigma;
+  const double i1 = s.sum();
+  const Eigen::Map<const Eigen::Matrix<double, 9, 1>> r(R.data());
+  Eigen::Matrix<double, 9, 9> H = 2.0 * m_mu * Eigen::Matrix<double, 9, 9>::Identity() + m_lambda * r * r.transpose();
+  const double inv_sqrt2 = 1.0 / std::sqrt(2.0);
+  for (int k = 0; k < 3; ++k) {
+    const int i = (k + 1) % 3, j = (k + 2) % 3;
+    Mat3 twist = Mat3::Zero();
+    twist(i, j) = inv_sqrt2;
+    twist(j, i) = -inv_sqrt2;
+    const Mat3 q = svd.U * twist * svd.V.transpose();
+    const Eigen::Map<const Eigen::Matrix<double, 9, 1>> qv(q.data());
+    // σᵢ + σⱼ → 0 only for a tet collapsed onto a line: the rotation is undefined there,
+    // and a floor keeps the (then clamped) eigenvalue finite.
+    const double rotation_gain = 2.0 / std::max(s[i] + s[j], 1e-6);
+    double eigenvalue = 2.0 * m_mu + (m_lambda * (i1 - 3.0) - 2.0 * m_mu) * rotation_gain;
+    if (project) eigenvalue = std::max(eigenvalue, 0.0);
+    H += (eigenvalue - 2.0 * m_mu) * qv * qv.transpose();
+  }
+  // vec(dF) = G dx with dF = Σⱼ dxⱼ gⱼᵀ: G(a + 3b, 3j + a) = gⱼ(b).
+  const Mat34& g = m_gradients[t];
+  Eigen::Matrix<double, 9, 12> G = Eigen::Matrix<double, 9, 12>::Zero();
+  for (int node = 0; node < 4; ++node) {
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) G(a + 3 * b, 3 * node + a) = g(b, node);
+    }
+  }
+  return -m_volume[t] * (G.transpose() * (H * G));
+}
+
+void CorotatedElasticity::evaluate(const Matrix3Xd& x, StiffnessModel model, bool with_stress,
+                                   ElementBuffers& out) const {
+  const std::size_t count = tet_count();
+  out.rotations.resize(count);
+  out.forces.resize(count);
+  out.stiffness.resize(count);
+  out.stress.resize(with_stress ? count : 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 256), [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t index = range.begin(); index != range.end(); ++index) {
+      const auto t = static_cast<TetIndex>(index);
+      const Mat3 F = deformation_gradient(x, t);
+      const SignedSvd svd = signed_svd(F);
+      const Mat3 Q = svd.U * svd.V.transpose();
+      const Mat3 sigma = stress(Q, F);
+      out.rotations[index] = Q;
+      out.forces[index] = -m_volume[t] * (Q * sigma) * m_gradients[t];
+      out.stiffness[index] = model == StiffnessModel::Warped ? stiffness(t, Q) : exact_stiffness(t, F, svd, true);
+      if (with_stress) out.stress[index] = Q * sigma * Q.transpose();
+    }
+  });
 }
 
 }  // namespace fissure::sim

@@ -8,8 +8,15 @@
 /// Energy Ψ = V (μ ‖ε‖² + λ/2 tr(ε)²); P = Q σ is its exact gradient w.r.t. F, and the
 /// nodal forces are fᵢ = −V P gᵢ (so Σ fᵢ = 0: internal forces carry no net force).
 ///
-/// Stiffness: K = ∂f/∂x with Q frozen (the "warped" linearization of eq. 4.6): per tet
-/// a symmetric 12×12 matrix, negative semi-definite.
+/// Stiffness K = ∂f/∂x, per tet a symmetric 12×12 matrix, negative semi-definite, in
+/// one of two models:
+///  - Warped (thesis eq. 4.6): Q frozen. Cheap, but it ignores how the rotation turns
+///    with the nodes, which under-estimates the stiffness against shear-rotation.
+///  - Exact: the true Hessian of Ψ, including ∂Q/∂F, with its three "twist"
+///    eigenvalues clamped at zero so it stays semi-definite (the other six
+///    eigenvalues, 2μ and 2μ + 3λ, never go negative). Closed form after Kim & Eberle,
+///    "Dynamic Deformables" (SIGGRAPH 2022 course), §5–7 (as-rigid-as-possible term
+///    plus the trace term λ/2 (tr S − 3)²).
 
 #include <vector>
 
@@ -19,10 +26,29 @@
 namespace fissure::sim {
 
 using Mat12 = Eigen::Matrix<double, 12, 12>;
+using Mat34 = Eigen::Matrix<double, 3, 4>;
+
+enum class StiffnessModel { Warped, Exact };
+
+/// F = U diag(σ) Vᵀ with U, V proper rotations; σ₂ carries the sign when F is inverted.
+struct SignedSvd {
+  Mat3 U, V;
+  Vec3 sigma;
+};
+SignedSvd signed_svd(const Mat3& F);
 
 /// The rotation of F's polar decomposition, proper (det = +1) even when F is inverted
 /// or degenerate.
 Mat3 polar_rotation(const Mat3& F);
+
+/// Per-tet results of one evaluation, written by tet index from any thread and read
+/// back in tet order, so sums over them do not depend on the thread count.
+struct ElementBuffers {
+  std::vector<Mat3> rotations;
+  std::vector<Mat34> forces;      ///< column i: elastic force on the tet's node i [N]
+  std::vector<Mat12> stiffness;   ///< ∂f/∂x of the tet (node-major rows and columns)
+  std::vector<Mat3> stress;       ///< world-frame stress Q σ Qᵀ [Pa]; filled only on request
+};
 
 class CorotatedElasticity {
  public:
@@ -33,6 +59,12 @@ class CorotatedElasticity {
   [[nodiscard]] std::size_t tet_count() const { return m_volume.size(); }
   [[nodiscard]] double rest_volume(TetIndex t) const { return m_volume[t]; }
   [[nodiscard]] const Matrix4Xu& tets() const { return m_tets; }
+  /// Rest gradients gᵢ of the tet's shape functions (columns).
+  [[nodiscard]] const Mat34& shape_gradients(TetIndex t) const { return m_gradients[t]; }
+
+  /// Points corner `corner` of tet `t` at another node with the same rest position
+  /// (fracture); the tet's rest shape, and so its gradients, do not change.
+  void replace_node(TetIndex t, int corner, NodeIndex node) { m_tets(corner, t) = node; }
 
   /// Elastic energy [J] at positions x (3×#N).
   [[nodiscard]] double energy(const Matrix3Xd& x) const;
@@ -47,14 +79,23 @@ class CorotatedElasticity {
   /// K_t = ∂f_t/∂x_t with Q_t frozen, rows/columns ordered node-major (node 0 x,y,z, …).
   [[nodiscard]] Mat12 stiffness(TetIndex t, const Mat3& rotation) const;
 
+  /// The exact K_t = ∂f_t/∂x_t at x (rotation differentiated). With `project` its
+  /// indefinite part is clamped so that −K_t is positive semi-definite.
+  [[nodiscard]] Mat12 exact_stiffness(TetIndex t, const Matrix3Xd& x, bool project = true) const;
+
+  /// Rotations, forces and stiffness of every tet at x, in parallel (TBB); the world
+  /// stress too when `with_stress` (fracture needs it).
+  void evaluate(const Matrix3Xd& x, StiffnessModel model, bool with_stress, ElementBuffers& out) const;
+
  private:
   Matrix4Xu m_tets;
-  Matrix3Xd m_rest;
-  std::vector<Eigen::Matrix<double, 3, 4>> m_gradients;  ///< gᵢ per tet (columns)
+  std::vector<Mat34> m_gradients;  ///< gᵢ per tet (columns)
   std::vector<double> m_volume;
   double m_mu, m_lambda;
 
   [[nodiscard]] Mat3 deformation_gradient(const Matrix3Xd& x, TetIndex t) const;
+  [[nodiscard]] Mat12 exact_stiffness(TetIndex t, const Mat3& F, const SignedSvd& svd, bool project) const;
+  [[nodiscard]] Mat3 stress(const Mat3& rotation, const Mat3& F) const;
 };
 
 }  // namespace fissure::sim

@@ -1,14 +1,22 @@
 #pragma once
 /// Implicit backward Euler for one deformable body (Baraff & Witkin 1998; DESIGN.md):
 ///   (M − h D − h² K) Δv = h (f + h K v),  v ← v + Δv,  x ← x + h v
-/// with K = ∂f/∂x (corotated, Q frozen at the start of the step), Rayleigh damping
-/// D = −α M + β K, lumped masses, gravity, and pinned nodes removed from the system.
-/// The sparsity pattern is built once; each step only refills its values, and the
-/// direct solver reuses its symbolic analysis.
+/// with K = ∂f/∂x at the start of the step (warped or exact, see CorotatedElasticity),
+/// Rayleigh damping D = −α M + β K, lumped masses, gravity, and pinned nodes removed
+/// from the system. The sparsity pattern is built once and rebuilt only when fracture
+/// splits a node; steps refill its values in place, and the direct solver reuses its
+/// symbolic analysis until the pattern changes.
+///
+/// A step is two calls so fracture can act in between: evaluate() computes every
+/// tet's rotation, forces and stiffness (in parallel); solve() assembles and solves.
+/// Splitting a node copies its position and velocity, so the evaluated tet data stays
+/// valid across splits.
 
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
 #include <array>
+#include <memory>
+#include <span>
 #include <vector>
 
 #include "player/sim/corotated_elasticity.h"
@@ -19,59 +27,109 @@ enum class LinearSolver { Direct, ConjugateGradient };
 
 enum class SolveStatus { Converged, MaxIterations, NotPositiveDefinite, NonFinite };
 
+[[nodiscard]] const char* to_string(SolveStatus status);
+
 struct StepSettings {
   double dt = 1.0 / 240.0;             ///< [s]
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  ///< [m/s²]
   LinearSolver solver = LinearSolver::Direct;
+  StiffnessModel stiffness = StiffnessModel::Warped;
   double tolerance = 1e-8;             ///< relative residual for conjugate gradients
   int max_iterations = 1000;           ///< conjugate-gradient cap
 };
 
+/// How tet mass is spread to nodes (thesis III.D.2). Without it, each node gets a
+/// quarter of density × volume of each incident tet.
+struct MassDistribution {
+  /// #T fraction of each tet's volume that is solid (the bake's mass_fraction).
+  std::vector<double> fraction;
+  /// #T barycentric centre of mass of the solid part; the tet's mass goes to its
+  /// nodes in these proportions, so the body's mass and centre of mass are the solid's.
+  std::vector<Vec4> center_of_mass;
+};
+
 class ImplicitIntegrator {
  public:
-  /// `rest` 3×#N, `tets` 4×#T; masses lumped from density × tet volume / 4.
-  ImplicitIntegrator(const Matrix3Xd& rest, const Matrix4Xu& tets, const Material& material);
+  /// `rest` 3×#N, `tets` 4×#T. Throws fissure::Error for invalid input.
+  ImplicitIntegrator(const Matrix3Xd& rest, const Matrix4Xu& tets, const Material& material,
+                     const MassDistribution* mass = nullptr);
+  // The system matrix holds pointers into its own storage: not copyable or movable.
+  ImplicitIntegrator(const ImplicitIntegrator&) = delete;
+  ImplicitIntegrator& operator=(const ImplicitIntegrator&) = delete;
 
   Matrix3Xd positions;   ///< 3×#N current [m]
   Matrix3Xd velocities;  ///< 3×#N current [m/s]
 
-  void pin(NodeIndex node);  ///< fixes a node where it is (re-analyses the pattern)
+  [[nodiscard]] Index node_count() const { return static_cast<Index>(positions.cols()); }
+  [[nodiscard]] const Matrix3Xd& rest_positions() const { return m_rest; }
   [[nodiscard]] const Eigen::VectorXd& node_masses() const { return m_mass; }
+  [[nodiscard]] double tet_mass(TetIndex t) const { return m_tet_mass[t]; }
   [[nodiscard]] const CorotatedElasticity& elasticity() const { return m_elasticity; }
+  [[nodiscard]] const Material& material() const { return m_material; }
+  [[nodiscard]] bool pinned(NodeIndex node) const { return m_pinned[node] != 0; }
+  /// 1 / mass, 0 for a pinned node (what contacts may move).
+  [[nodiscard]] double inverse_mass(NodeIndex node) const { return m_pinned[node] ? 0.0 : 1.0 / m_mass[node]; }
 
-  /// Advances one step; returns how the linear solve went. On anything but Converged
-  /// the state is left unchanged, so the caller can retry with a smaller dt.
+  /// Fixes nodes where they are; the pattern is rebuilt once, on the next solve.
+  void pin(std::span<const NodeIndex> nodes);
+  void pin(NodeIndex node) { pin(std::span<const NodeIndex>(&node, 1)); }
+
+  /// Splits `node`: a new node with the same rest and current position and velocity
+  /// takes the given (tet, corner) slots, which must currently hold `node`. Masses are
+  /// re-lumped, so momentum is unchanged. Returns the new node's index.
+  NodeIndex split_node(NodeIndex node, std::span<const std::pair<TetIndex, int>> slots);
+
+  /// Advances one step: evaluate() then solve(). On anything but Converged or
+  /// MaxIterations the state is left unchanged, so the caller can retry with a smaller dt.
   SolveStatus step(const StepSettings& settings);
+
+  /// Rotations, forces and stiffness of every tet at the current positions.
+  void evaluate(const StepSettings& settings, bool with_stress);
+  [[nodiscard]] const ElementBuffers& elements() const { return m_elements; }
+  /// Assembles from the last evaluate() and solves. MaxIterations still advances the
+  /// state with the best iterate (real-time use); NotPositiveDefinite and NonFinite
+  /// leave it unchanged.
+  SolveStatus solve(const StepSettings& settings);
 
   [[nodiscard]] int last_iterations() const { return m_iterations; }
 
   /// Wall-clock seconds of the last step's phases.
   struct PhaseTimes {
-    double forces = 0;    ///< rotations and elastic, gravity and damping forces
-    double assembly = 0;  ///< element stiffness and the system's values
+    double forces = 0;    ///< rotations, elastic forces and element stiffness (evaluate)
+    double assembly = 0;  ///< the system's values, gravity and damping
     double solve = 0;     ///< factorization and solve, or CG
   };
   [[nodiscard]] const PhaseTimes& last_phase_times() const { return m_phase_times; }
 
   /// Total kinetic + elastic energy [J] (no gravity).
   [[nodiscard]] double energy() const;
+  [[nodiscard]] double kinetic_energy() const;
+  [[nodiscard]] Vec3 linear_momentum() const { return velocities * m_mass; }
+  [[nodiscard]] Vec3 angular_momentum() const;  ///< about the origin
 
  private:
   void build_pattern();
+  void lump_masses();
 
   CorotatedElasticity m_elasticity;
   Material m_material;
-  Eigen::VectorXd m_mass;           ///< #N lumped masses [kg]
+  Matrix3Xd m_rest;
+  std::vector<double> m_tet_mass;            ///< #T [kg]
+  std::vector<Vec4> m_corner_weight;         ///< #T, each sums to 1
+  Eigen::VectorXd m_mass;                    ///< #N lumped masses [kg]
   std::vector<std::uint8_t> m_pinned;
-  std::vector<Index> m_dof;         ///< node → first row in the system, kInvalidIndex if pinned
+  std::vector<Index> m_dof;                  ///< node → first row in the system, kInvalidIndex if pinned
   Eigen::SparseMatrix<double> m_matrix;
   /// Per tet, per (i, j) node pair and block column c: where that column's 3 rows start
   /// in the compressed storage (null when a node is pinned). Steps write through these.
   std::vector<std::array<double*, 48>> m_blocks;
+  std::vector<double*> m_diagonal;           ///< per free row: its diagonal entry
+  bool m_pattern_dirty = true;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> m_direct;
-  Eigen::VectorXd m_last_dv;        ///< warm start for conjugate gradients
+  Matrix3Xd m_last_dv;                       ///< per node: last Δv, the warm start for conjugate gradients
   bool m_analyzed = false;
   int m_iterations = 0;
+  ElementBuffers m_elements;
   PhaseTimes m_phase_times;
 };
 

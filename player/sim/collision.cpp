@@ -1,0 +1,409 @@
+#include "player/sim/collision.h"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+namespace fissure::sim {
+
+namespace {
+
+/// One side of a contact: a point embedded in a body, a projectile, or a fixed point
+/// on a static obstacle.
+struct Side {
+  enum class Kind : std::uint8_t { Static, Embedded, Projectile } kind = Kind::Static;
+  Index owner = 0;  ///< body or projectile index
+  Index point = 0;  ///< embedded point index
+  Vec3 anchor = Vec3::Zero();
+};
+
+struct Contact {
+  Side a, b;
+  Vec3 normal;             ///< from b towards a
+  double reach = 0;        ///< a and b touch when normal · (a − b) = reach
+  double restitution = 0, friction = 0;
+  double approach = 0;     ///< normal relative velocity when detected
+  double normal_impulse = 0;
+  Vec3 friction_impulse = Vec3::Zero();
+};
+
+ContactMaterial combine(const ContactMaterial& a, const ContactMaterial& b) {
+  return {std::max(a.restitution, b.restitution), std::sqrt(a.friction * b.friction)};
+}
+
+class ContactSolver {
+ public:
+  ContactSolver(std::span<CollisionBody> bodies, std::span<Projectile> projectiles)
+      : m_bodies(bodies), m_projectiles(projectiles) {}
+
+  [[nodiscard]] Vec3 position(const Side& s) const {
+    switch (s.kind) {
+      case Side::Kind::Static: return s.anchor;
+      case Side::Kind::Projectile: return m_projectiles[s.owner].position;
+      case Side::Kind::Embedded: {
+        const CollisionBody& b = m_bodies[s.owner];
+        return embedded_position(b.body->positions, b.body->elasticity().tets(), *b.points, s.point);
+      }
+    }
+    return Vec3::Zero();
+  }
+  [[nodiscard]] Vec3 velocity(const Side& s) const {
+    switch (s.kind) {
+      case Side::Kind::Static: return Vec3::Zero();
+      case Side::Kind::Projectile: return m_projectiles[s.owner].velocity;
+      case Side::Kind::Embedded: {
+        const CollisionBody& b = m_bodies[s.owner];
+        return embedded_position(b.body->velocities, b.body->elasticity().tets(), *b.points, s.point);
+      }
+    }
+    return Vec3::Zero();
+  }
+  /// How fast the point moves per unit impulse: Σ bᵢ² / mᵢ for an embedded point.
+  [[nodiscard]] double inverse_mass(const Side& s) const {
+    switch (s.kind) {
+      case Side::Kind::Static: return 0.0;
+      case Side::Kind::Projectile: return 1.0 / m_projectiles[s.owner].mass;
+      case Side::Kind::Embedded: {
+        const CollisionBody& b = m_bodies[s.owner];
+        const TetIndex t = b.points->tet[s.point];
+        const Vec4& w = b.points->barycentric[s.point];
+        double sum = 0.0;
+        for (int i = 0; i < 4; ++i) sum += w[i] * w[i] * b.body->inverse_mass(b.body->elasticity().tets()(i, t));
+        return sum;
+      }
+    }
+    return 0.0;
+  }
+  /// Applies `amount` (an impulse, or a mass-weighted displacement) at the side.
+  void apply(const Side& s, const Vec3& amount, bool to_positions) {
+    if (s.kind == Side::Kind::Projectile) {
+      Projectile& p = m_projectiles[s.owner];
+      (to_positions ? p.position : p.velocity) += amount / p.mass;
+    } else if (s.kind == Side::Kind::Embedded) {
+      CollisionBody& b = m_bodies[s.owner];
+      const TetIndex t = b.points->tet[s.point];
+      const Vec4& w = b.points->barycentric[s.point];
+      Matrix3Xd& target = to_positions ? b.body->positions : b.body->velocities;
+      for (int i = 0; i < 4; ++i) {
+        const NodeIndex n = b.body->elasticity().tets()(i, t);
+        target.col(n) += w[i] * b.body->inverse_mass(n) * amount;
+      }
+    }
+  }
+
+  void solve(std::vector<Contact>& contacts, const CollisionSettings& settings) {
+    // Positions: project every penetration out (Gauss–Seidel over the contacts).
+    for (int sweep = 0; sweep < settings.iterations; ++sweep) {
+      for (Contact& c : contacts) {
+        const double depth = c.reach - c.normal.dot(position(c.a) - position(c.b));
+        const double w = inverse_mass(c.a) + inverse_mass(c.b);
+        if (depth <= 0.0 || w <= 0.0) continue;
+        const Vec3 push = (depth / w) * c.normal;
+        apply(c.a, push, true);
+        apply(c.b, -push, true);
+      }
+    }
+    // Velocities: restitution only above a resting speed, so resting contact does not
+    // jitter; impulses are accumulated and clamped (non-negative, inside the cone).
+    const double resting_speed = 2.0 * settings.gravity.norm() * settings.dt;
+    for (Contact& c : contacts) c.approach = c.normal.dot(velocity(c.a) - velocity(c.b));
+    for (int sweep = 0; sweep < settings.iterations; ++sweep) {
+      for (Contact& c : contacts) {
+        const double w = inverse_mass(c.a) + inverse_mass(c.b);
+        if (w <= 0.0) continue;
+        const Vec3 relative = velocity(c.a) - velocity(c.b);
+        const double target = c.approach < -resting_speed ? -c.restitution * c.approach : 0.0;
+        const double accumulated = std::max(c.normal_impulse + (target - c.normal.dot(relative)) / w, 0.0);
+        const Vec3 normal_step = (accumulated - c.normal_impulse) * c.normal;
+        c.normal_impulse = accumulated;
+        apply(c.a, normal_step, false);
+        apply(c.b, -normal_step, false);
+        const Vec3 after = velocity(c.a) - velocity(c.b);
+        const Vec3 tangential = after - c.normal.dot(after) * c.normal;
+        Vec3 friction = c.friction_impulse - tangential / w;
+        const double limit = c.friction * c.normal_impulse;
+        if (friction.norm() > limit) friction *= limit / friction.norm();
+        apply(c.a, friction - c.friction_impulse, false);
+        apply(c.b, c.friction_impulse - friction, false);
+        c.friction_impulse = friction;
+      }
+    }
+  }
+
+ private:
+  std::span<CollisionBody> m_bodies;
+  std::span<Projectile> m_projectiles;
+};
+
+struct SweptPoint {
+  Vec3 start, end;
+  double radius;
+};
+
+/// First contact of a point sweeping start → end with an axis-aligned box: the segment
+/// against the box grown by the radius (slab test; a little conservative at the box's
+/// edges and corners). Returns the contact normal and a point on the touched face.
+std::optional<std::pair<Vec3, Vec3>> box_contact(const Box& box, const SweptPoint& p) {
+  const Vec3 lo = box.min.array() - p.radius, hi = box.max.array() + p.radius;
+  const Vec3 d = p.end - p.start;
+  const bool starts_inside = (p.start.array() > lo.array()).all() && (p.start.array() < hi.array()).all();
+  if (!starts_inside) {
+    double enter = 0.0, leave = 1.0;
+    int axis = -1;
+    for (int k = 0; k < 3; ++k) {
+      if (d[k] == 0.0) {
+        if (p.start[k] <= lo[k] || p.start[k] >= hi[k]) return std::nullopt;
+        continue;
+      }
+      double t0 = (lo[k] - p.start[k]) / d[k], t1 = (hi[k] - p.start[k]) / d[k];
+      if (t0 > t1) std::swap(t0, t1);
+      if (t0 > enter) {
+        enter = t0;
+        axis = k;
+      }
+      leave = std::min(leave, t1);
+      if (enter > leave) return std::nullopt;
+    }
+    if (axis < 0) return std::nullopt;
+    Vec3 normal = Vec3::Zero();
+    normal[axis] = d[axis] > 0.0 ? -1.0 : 1.0;
+    Vec3 anchor = p.start + enter * d;
+    anchor[axis] = d[axis] > 0.0 ? box.min[axis] : box.max[axis];
+    return std::pair{normal, anchor};
+  }
+  // Already touching at the start: push out through the nearest face of the grown box.
+  const Vec3 q = p.end;
+  int axis = 0;
+  double best = std::numeric_limits<double>::infinity();
+  bool towards_max = false;
+  for (int k = 0; k < 3; ++k) {
+    if (q[k] - lo[k] < best) {
+      best = q[k] - lo[k];
+      axis = k;
+      towards_max = false;
+    }
+    if (hi[k] - q[k] < best) {
+      best = hi[k] - q[k];
+      axis = k;
+      towards_max = true;
+    }
+  }
+  if (best <= 0.0) return std::nullopt;  // moved out again during the step
+  Vec3 normal = Vec3::Zero();
+  normal[axis] = towards_max ? 1.0 : -1.0;
+  Vec3 anchor = q;
+  anchor[axis] = towards_max ? box.max[axis] : box.min[axis];
+  return std::pair{normal, anchor};
+}
+
+/// Adds the contacts of one swept point (side `a`) with the static environment.
+void static_contacts(const Side& a, const SweptPoint& p, const ContactMaterial& material,
+                     const Environment& environment, std::vector<Contact>& out, ContactCounts& counts) {
+  if (environment.ground) {
+    const Plane& g = *environment.ground;
+    // A half space cannot be tunnelled through: the end state alone decides.
+    const double height = g.normal.dot(p.end) - g.offset;
+    if (height < p.radius) {
+      const ContactMaterial m = combine(material, g.material);
+      out.push_back({a, Side{.anchor = p.end - height * g.normal}, g.normal, p.radius, m.restitution, m.friction});
+    }
+  }
+  for (const Box& box : environment.boxes) {
+    if (const auto hit = box_contact(box, p)) {
+      const ContactMaterial m = combine(material, box.material);
+      out.push_back({a, Side{.anchor = hit->second}, hit->first, p.radius, m.restitution, m.friction});
+      const Vec3 gap = p.end.cwiseMax(box.min).cwiseMin(box.max) - p.end;
+      if (gap.norm() >= p.radius) ++counts.swept;
+    }
+  }
+  for (const Ball& ball : environment.balls) {
+    const auto s = time_of_impact(p.start, p.end, ball.center, ball.center, p.radius + ball.radius);
+    if (!s) continue;
+    Vec3 normal = p.start + *s * (p.end - p.start) - ball.center;
+    normal = normal.norm() > 0.0 ? Vec3(normal.normalized()) : Vec3(Vec3::UnitZ());
+    const ContactMaterial m = combine(material, ball.material);
+    out.push_back({a, Side{.anchor = ball.center + ball.radius * normal}, normal, p.radius, m.restitution, m.friction});
+    if ((p.end - ball.center).norm() >= p.radius + ball.radius) ++counts.swept;
+  }
+}
+
+/// Adds the contact between two swept points if they meet during the step.
+void pair_contact(const Side& a, const SweptPoint& pa, const Side& b, const SweptPoint& pb,
+                  const ContactMaterial& m, std::vector<Contact>& out, ContactCounts& counts) {
+  const double reach = pa.radius + pb.radius;
+  const auto s = time_of_impact(pa.start, pa.end, pb.start, pb.end, reach);
+  if (!s) return;
+  Vec3 normal = (pa.start + *s * (pa.end - pa.start)) - (pb.start + *s * (pb.end - pb.start));
+  if (!(normal.norm() > 0.0)) normal = pa.end - pb.end;
+  normal = normal.norm() > 0.0 ? Vec3(normal.normalized()) : Vec3(Vec3::UnitZ());
+  out.push_back({a, b, normal, reach, m.restitution, m.friction});
+  if ((pa.end - pb.end).norm() >= reach) ++counts.swept;
+}
+
+struct AlignedBox {
+  Vec3 min = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 max = Vec3::Constant(-std::numeric_limits<double>::infinity());
+  void add(const SweptPoint& p) {
+    min = min.cwiseMin(Vec3(p.start.cwiseMin(p.end).array() - p.radius));
+    max = max.cwiseMax(Vec3(p.start.cwiseMax(p.end).array() + p.radius));
+  }
+  [[nodiscard]] bool overlaps(const AlignedBox& o) const {
+    return (min.array() <= o.max.array()).all() && (o.min.array() <= max.array()).all();
+  }
+};
+
+}  // namespace
+
+std::optional<double> time_of_impact(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1, double distance) {
+  // |d0 + s (d1 − d0)|² = distance², the smallest root in [0, 1].
+  const Vec3 d0 = a0 - b0, dd = (a1 - b1) - d0;
+  const double c = d0.squaredNorm() - distance * distance;
+  if (c <= 0.0) return 0.0;
+  const double a = dd.squaredNorm(), half_b = d0.dot(dd);
+  if (a == 0.0 || half_b >= 0.0) return std::nullopt;  // not approaching
+  const double discriminant = half_b * half_b - a * c;
+  if (discriminant < 0.0) return std::nullopt;
+  const double s = (-half_b - std::sqrt(discriminant)) / a;
+  if (s > 1.0) return std::nullopt;
+  return std::max(s, 0.0);
+}
+
+double penetration(const Vec3& point, double radius, const Environment& environment,
+                   std::span<const Projectile> projectiles) {
+  double depth = 0.0;
+  if (environment.ground) {
+    depth = std::max(depth, radius - (environment.ground->normal.dot(point) - environment.ground->offset));
+  }
+  for (const Box& box : environment.boxes) {
+    const Vec3 inside_distance = (point - box.min).cwiseMin(box.max - point);
+    const double inner = inside_distance.minCoeff();
+    if (inner > 0.0) {
+      depth = std::max(depth, radius + inner);
+    } else {
+      const double gap = (point.cwiseMax(box.min).cwiseMin(box.max) - point).norm();
+      depth = std::max(depth, radius - gap);
+    }
+  }
+  for (const Ball& ball : environment.balls) {
+    depth = std::max(depth, radius + ball.radius - (point - ball.center).norm());
+  }
+  for (const Projectile& p : projectiles) {
+    if (p.launched) depth = std::max(depth, radius + p.radius - (point - p.position).norm());
+  }
+  return depth;
+}
+
+ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environment& environment,
+                                 std::span<Projectile> projectiles, double time, const CollisionSettings& settings) {
+  ContactCounts counts;
+  const double h = settings.dt;
+  // Projectiles: launch, then move ballistically (symplectic Euler) over the step.
+  std::vector<SweptPoint> projectile_sweep(projectiles.size());
+  for (std::size_t j = 0; j < projectiles.size(); ++j) {
+    Projectile& p = projectiles[j];
+    if (!p.launched && p.launch_time <= time + 0.5 * h) p.launched = true;
+    const Vec3 start = p.position;
+    if (p.launched) {
+      p.velocity += h * settings.gravity;
+      p.position += h * p.velocity;
+    }
+    projectile_sweep[j] = {start, p.position, p.radius};
+  }
+  // Every embedded point's motion over the step, and each body's swept bounds.
+  std::vector<std::vector<SweptPoint>> sweeps(bodies.size());
+  std::vector<AlignedBox> bounds(bodies.size());
+  for (std::size_t bi = 0; bi < bodies.size(); ++bi) {
+    const CollisionBody& b = bodies[bi];
+    const Matrix4Xu& tets = b.body->elasticity().tets();
+    sweeps[bi].resize(b.points->size());
+    for (std::size_t k = 0; k < b.points->size(); ++k) {
+      sweeps[bi][k] = {embedded_position(*b.start_positions, tets, *b.points, k),
+                       embedded_position(b.body->positions, tets, *b.points, k), b.points->radius[k]};
+      bounds[bi].add(sweeps[bi][k]);
+    }
+  }
+  std::vector<Contact> contacts;
+  for (std::size_t bi = 0; bi < bodies.size(); ++bi) {
+    for (std::size_t k = 0; k < sweeps[bi].size(); ++k) {
+      const Side a{Side::Kind::Embedded, static_cast<Index>(bi), static_cast<Index>(k)};
+      static_contacts(a, sweeps[bi][k], bodies[bi].material, environment, contacts, counts);
+    }
+    for (std::size_t j = 0; j < projectiles.size(); ++j) {
+      if (!projectiles[j].launched) continue;
+      AlignedBox pb;
+      pb.add(projectile_sweep[j]);
+      if (!pb.overlaps(bounds[bi])) continue;
+      const Side b{Side::Kind::Projectile, static_cast<Index>(j)};
+      const ContactMaterial m = combine(bodies[bi].material, projectiles[j].material);
+      for (std::size_t k = 0; k < sweeps[bi].size(); ++k) {
+        const Side a{Side::Kind::Embedded, static_cast<Index>(bi), static_cast<Index>(k)};
+        pair_contact(a, sweeps[bi][k], b, projectile_sweep[j], m, contacts, counts);
+      }
+    }
+  }
+  for (std::size_t j = 0; j < projectiles.size(); ++j) {
+    if (!projectiles[j].launched) continue;
+    const Side a{Side::Kind::Projectile, static_cast<Index>(j)};
+    static_contacts(a, projectile_sweep[j], projectiles[j].material, environment, contacts, counts);
+    for (std::size_t i = j + 1; i < projectiles.size(); ++i) {
+      if (!projectiles[i].launched) continue;
+      const Side b{Side::Kind::Projectile, static_cast<Index>(i)};
+      pair_contact(a, projectile_sweep[j], b, projectile_sweep[i], combine(projectiles[j].material, projectiles[i].material),
+                   contacts, counts);
+    }
+  }
+  if (settings.self_collision) {
+    // Spatial hash over the swept bounds of every point with a radius; pairs in the same
+    // fragment of the same body are skipped (they are held together elastically).
+    double cell = 0.0;
+    for (const auto& sweep : sweeps) {
+      for (const SweptPoint& p : sweep) cell = std::max(cell, 2.0 * p.radius);
+    }
+    if (cell > 0.0) {
+      std::unordered_map<std::uint64_t, std::vector<std::pair<Index, Index>>> grid;
+      auto cell_of = [&](double v) { return static_cast<std::int64_t>(std::floor(v / cell)); };
+      auto key = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+        return (static_cast<std::uint64_t>(x) * 73856093u) ^ (static_cast<std::uint64_t>(y) * 19349663u) ^
+               (static_cast<std::uint64_t>(z) * 83492791u);
+      };
+      std::vector<std::tuple<Index, Index, Index, Index>> pairs;
+      for (Index bi = 0; bi < bodies.size(); ++bi) {
+        for (Index k = 0; k < sweeps[bi].size(); ++k) {
+          const SweptPoint& p = sweeps[bi][k];
+          if (p.radius <= 0.0) continue;
+          AlignedBox box;
+          box.add(p);
+          for (auto x = cell_of(box.min.x()); x <= cell_of(box.max.x()); ++x) {
+            for (auto y = cell_of(box.min.y()); y <= cell_of(box.max.y()); ++y) {
+              for (auto z = cell_of(box.min.z()); z <= cell_of(box.max.z()); ++z) {
+                auto& bucket = grid[key(x, y, z)];
+                for (const auto& [bj, kj] : bucket) {
+                  const bool same_fragment =
+                      bj == bi && (*bodies[bi].tet_fragment)[bodies[bi].points->tet[k]] ==
+                                      (*bodies[bi].tet_fragment)[bodies[bi].points->tet[kj]];
+                  if (!same_fragment) pairs.emplace_back(bj, kj, bi, k);
+                }
+                bucket.emplace_back(bi, k);
+              }
+            }
+          }
+        }
+      }
+      // A pair sharing several cells appears several times; hash collisions add false
+      // candidates, which the narrow phase rejects.
+      std::sort(pairs.begin(), pairs.end());
+      pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+      counts.pairs_tested = pairs.size();
+      for (const auto& [bj, kj, bi, k] : pairs) {
+        const Side a{Side::Kind::Embedded, bi, k}, b{Side::Kind::Embedded, bj, kj};
+        pair_contact(a, sweeps[bi][k], b, sweeps[bj][kj], combine(bodies[bi].material, bodies[bj].material),
+                     contacts, counts);
+      }
+    }
+  }
+  counts.contacts = contacts.size();
+  ContactSolver(bodies, projectiles).solve(contacts, settings);
+  return counts;
+}
+
+}  // namespace fissure::sim

@@ -1,0 +1,117 @@
+#pragma once
+/// Contacts between embedded collision points (the bake's spheres, or every render
+/// vertex in the reference mode), projectiles and static obstacles (thesis IV.H).
+///
+/// Detection runs once per step on the end-of-step positions, with swept tests
+/// against the start-of-step positions so nothing fast passes through anything
+/// (see ContactCounts for which test caught what). Response is sequential impulses:
+///  - positions: every penetration is projected out along its normal, the correction
+///    split between the two sides by inverse mass, and spread to a tet's nodes by the
+///    point's barycentrics (node i moves bᵢ/mᵢ · λ);
+///  - velocities: the approach speed is removed (or reversed by the restitution) and
+///    Coulomb friction limits the tangential impulse, accumulated and clamped per contact.
+/// Deviation from the thesis: it moves each node by the largest offset of any sphere in
+/// its tet. That over-corrects when several spheres touch at once and does not conserve
+/// momentum between two moving bodies; mass-weighted impulses do both. Contacts are
+/// handled in a fixed order, so results do not depend on the thread count.
+
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "player/sim/implicit_integrator.h"
+
+namespace fissure::sim {
+
+struct ContactMaterial {
+  double restitution = 0.2;  ///< in [0, 1]; pairs use the larger
+  double friction = 0.5;     ///< Coulomb μ ≥ 0; pairs use √(μa μb)
+};
+
+struct Plane {
+  Vec3 normal = Vec3::UnitZ();  ///< unit, pointing out of the solid half space
+  double offset = 0;            ///< the plane is normal · x = offset
+  ContactMaterial material;
+};
+struct Box {
+  Vec3 min, max;
+  ContactMaterial material;
+};
+struct Ball {
+  Vec3 center;
+  double radius = 0;
+  ContactMaterial material;
+};
+struct Environment {
+  std::optional<Plane> ground;
+  std::vector<Box> boxes;
+  std::vector<Ball> balls;
+};
+
+/// A rigid ball thrown into the scene (the thesis's ball that hits the armadillo).
+struct Projectile {
+  Vec3 position = Vec3::Zero();  ///< at launch, then current [m]
+  Vec3 velocity = Vec3::Zero();  ///< at launch, then current [m/s]
+  double radius = 0.1;
+  double mass = 1.0;
+  double launch_time = 0;        ///< [s]; absent from the scene before this
+  ContactMaterial material;
+  bool launched = false;
+};
+
+/// Points bound to a body's tets by barycentric coordinates.
+struct EmbeddedPoints {
+  std::vector<TetIndex> tet;
+  std::vector<Vec4> barycentric;
+  std::vector<double> radius;  ///< 0 for render vertices
+  [[nodiscard]] std::size_t size() const { return tet.size(); }
+};
+
+/// What collisions see of one deformable body.
+struct CollisionBody {
+  ImplicitIntegrator* body = nullptr;
+  const EmbeddedPoints* points = nullptr;
+  const Matrix3Xd* start_positions = nullptr;  ///< node positions at the start of the step
+  const std::vector<Index>* tet_fragment = nullptr;  ///< fragment of each tet (self-collision)
+  ContactMaterial material;
+};
+
+struct CollisionSettings {
+  double dt = 1.0 / 240.0;
+  Vec3 gravity = Vec3(0, 0, -9.81);  ///< moves the projectiles
+  bool self_collision = false;       ///< between fragments and between bodies
+  int iterations = 4;                ///< sequential-impulse sweeps (positions, then velocities)
+};
+
+/// No tunnelling: every test is swept over the step (sphere–sphere by the exact time
+/// of impact of the relative motion, sphere–box as a segment against the box grown by
+/// the radius, sphere–ground against the half space), so no sub-steps are needed.
+struct ContactCounts {
+  std::size_t contacts = 0;
+  std::size_t swept = 0;         ///< contacts whose end states do not overlap: only the swept test caught them
+  std::size_t pairs_tested = 0;  ///< narrow-phase point pairs of the self-collision broad phase
+};
+
+/// Launches due projectiles, moves them over the step, then finds and resolves every
+/// contact. `time` is the simulation time at the start of the step.
+ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environment& environment,
+                                 std::span<Projectile> projectiles, double time, const CollisionSettings& settings);
+
+/// Earliest s ∈ [0, 1] at which two points moving linearly (a0 → a1, b0 → b1) come
+/// within `distance`; 0 when they start within it, nullopt when they never do.
+std::optional<double> time_of_impact(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1,
+                                     double distance);
+
+/// How deep a ball of `radius` at `point` is inside the environment's obstacles or the
+/// launched projectiles (0 when clear) [m].
+double penetration(const Vec3& point, double radius, const Environment& environment,
+                   std::span<const Projectile> projectiles);
+
+/// World position of embedded point k.
+inline Vec3 embedded_position(const Matrix3Xd& x, const Matrix4Xu& tets, const EmbeddedPoints& points, std::size_t k) {
+  const TetIndex t = points.tet[k];
+  const Vec4& b = points.barycentric[k];
+  return b[0] * x.col(tets(0, t)) + b[1] * x.col(tets(1, t)) + b[2] * x.col(tets(2, t)) + b[3] * x.col(tets(3, t));
+}
+
+}  // namespace fissure::sim

@@ -1,0 +1,93 @@
+#pragma once
+/// Node-splitting fracture (thesis IV.G; O'Brien & Hodgins 1999, snapped to element
+/// boundaries as in Parker & O'Brien 2009; DESIGN.md "Fracture").
+///
+/// Each tet's world stress is split into tensile and compressive parts by its
+/// eigenvalues; each node collects the nodal forces of both parts from its tets, and
+///   ς = ½ (−m(Σf⁺) + Σ m(f⁺) + m(Σf⁻) − Σ m(f⁻)),   m(v) = v vᵀ / |v|.
+/// Where ς's largest eigenvalue exceeds the toughness, the node splits: the tets whose
+/// centroid lies on the positive side of the plane through the node, normal to that
+/// eigenvector, move to a new node. Nodes are never removed, and render data never
+/// changes: the renderer shows the exposed faces' walls.
+
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "player/sim/implicit_integrator.h"
+
+namespace fissure::sim {
+
+/// One face of one tet: face k is the one opposite corner k (common/tet_mesh.h order).
+struct TetFace {
+  TetIndex tet = kInvalidIndex;
+  int face = 0;
+  friend bool operator==(const TetFace&, const TetFace&) = default;
+};
+
+/// Connectivity of a body as it fractures: which faces are exposed (on the boundary
+/// now: never shared at rest, or split apart since) and which fragment (connected
+/// component through shared nodes) each tet is in.
+class FractureTopology {
+ public:
+  explicit FractureTopology(const Matrix4Xu& tets, Index node_count);
+
+  /// The (tet, corner) slots that hold `node`.
+  [[nodiscard]] const std::vector<std::pair<TetIndex, int>>& incident(NodeIndex node) const {
+    return m_incident[node];
+  }
+  [[nodiscard]] bool exposed(TetFace f) const { return m_exposed[4 * f.tet + static_cast<Index>(f.face)] != 0; }
+  [[nodiscard]] std::size_t exposed_face_count() const { return m_exposed_count; }
+  /// The tet that shared face f at rest (tet kInvalidIndex on the rest boundary).
+  [[nodiscard]] TetFace rest_neighbour(TetFace f) const { return m_neighbour[4 * f.tet + static_cast<Index>(f.face)]; }
+
+  [[nodiscard]] const std::vector<Index>& tet_fragment() const { return m_fragment; }
+  [[nodiscard]] Index fragment_count() const { return m_fragment_count; }
+
+  /// Records that `moved` slots now hold `added` instead of `node`; appends the faces
+  /// this exposed to `newly_exposed`. Fragments are not updated: call update_fragments()
+  /// once after a batch of splits.
+  void on_split(NodeIndex node, NodeIndex added, std::span<const std::pair<TetIndex, int>> moved,
+                const Matrix4Xu& tets, std::vector<TetFace>& newly_exposed);
+  /// Recomputes fragment ids (smallest tet index first, so ids are stable and
+  /// deterministic). O(#T); returns whether the count changed.
+  bool update_fragments(const Matrix4Xu& tets);
+
+ private:
+  [[nodiscard]] bool faces_match(TetFace a, TetFace b, const Matrix4Xu& tets) const;
+
+  std::vector<std::vector<std::pair<TetIndex, int>>> m_incident;
+  std::vector<TetFace> m_neighbour;      ///< 4 per tet
+  std::vector<std::uint8_t> m_exposed;   ///< 4 per tet
+  std::size_t m_exposed_count = 0;
+  std::vector<Index> m_fragment;
+  Index m_fragment_count = 1;
+};
+
+struct FractureSettings {
+  double toughness = std::numeric_limits<double>::infinity();  ///< [N]; ∞ never splits, 0 splits any stressed node
+  int max_splits_per_step = 64;  ///< bounds the cost of a step (and the pattern rebuild) under extreme loads
+};
+
+struct NodeSplit {
+  NodeIndex node = kInvalidIndex;   ///< the node that split
+  NodeIndex added = kInvalidIndex;  ///< the new node
+  Vec3 normal = Vec3::Zero();       ///< fracture plane normal (ς's largest eigenvector)
+  double eigenvalue = 0;            ///< ς's largest eigenvalue [N]
+};
+
+/// The largest eigenvalue and its eigenvector of every node's separation tensor, from
+/// the stresses of the body's last evaluate(…, with_stress = true).
+struct SeparationField {
+  std::vector<double> eigenvalue;
+  std::vector<Vec3> direction;
+};
+void separation_field(const ImplicitIntegrator& body, SeparationField& out);
+
+/// Splits up to max_splits_per_step nodes whose separation exceeds the toughness,
+/// largest first (ties by node index), each node at most once per call. Appends the
+/// splits and newly exposed faces; updates fragments when anything split.
+void fracture(ImplicitIntegrator& body, FractureTopology& topology, const FractureSettings& settings,
+              std::vector<NodeSplit>& splits, std::vector<TetFace>& newly_exposed);
+
+}  // namespace fissure::sim
