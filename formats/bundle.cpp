@@ -237,26 +237,7 @@ BundleMetadata read_metadata(const Reader& reader, hid_t file) {
 }  // namespace
 
 void write_bundle(const std::filesystem::path& path, const Bundle& bundle) {
-  const std::filesystem::path temporary =
-      path.string() + ".tmp-" + std::to_string(static_cast<long>(::getpid()));
-  try {
-    {
-      const h5::Handle file = h5::create_file(temporary.string());
-      try {
-        write_contents(file.id(), bundle);
-      } catch (const Error& e) {
-        throw Error(path.string() + ": " + e.what(), e.hint());
-      }
-      if (H5Fflush(file.id(), H5F_SCOPE_GLOBAL) < 0) throw Error(temporary.string() + ": flushing failed");
-    }
-    std::error_code ec;
-    std::filesystem::rename(temporary, path, ec);
-    if (ec) throw Error(path.string() + ": cannot move the finished bundle into place: " + ec.message());
-  } catch (...) {
-    std::error_code ignored;
-    std::filesystem::remove(temporary, ignored);
-    throw;
-  }
+  h5::write_file_atomically(path, [&](hid_t file) { write_contents(file, bundle); });
 }
 
 Bundle read_bundle_unchecked_context(const std::filesystem::path& path);

@@ -1,6 +1,9 @@
 #include "formats/hdf5_io.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <system_error>
 #include <numeric>
 
 #include "common/error.h"
@@ -55,6 +58,28 @@ Handle create_file(const std::string& path) {
   Handle file(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, fcpl.id(), H5P_DEFAULT), H5Fclose);
   if (!file.valid()) throw Error(path + ": cannot create the file", "check that the directory exists and is writable");
   return file;
+}
+
+void write_file_atomically(const std::filesystem::path& path, const std::function<void(hid_t file)>& write) {
+  const std::filesystem::path temporary = path.string() + ".tmp-" + std::to_string(static_cast<long>(::getpid()));
+  try {
+    {
+      const Handle file = create_file(temporary.string());
+      try {
+        write(file.id());
+      } catch (const Error& e) {
+        throw Error(path.string() + ": " + e.what(), e.hint());
+      }
+      if (H5Fflush(file.id(), H5F_SCOPE_GLOBAL) < 0) throw Error(temporary.string() + ": flushing failed");
+    }
+    std::error_code ec;
+    std::filesystem::rename(temporary, path, ec);
+    if (ec) throw Error(path.string() + ": cannot move the finished file into place: " + ec.message());
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove(temporary, ignored);
+    throw;
+  }
 }
 
 Handle open_file_read_only(const std::string& path) {

@@ -8,6 +8,7 @@
 #include <hdf5.h>
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
@@ -50,6 +51,10 @@ class Handle {
 void silence_library_errors();
 
 Handle create_file(const std::string& path);
+/// Creates `path` through a temporary file beside it, renamed over it only once
+/// `write` has returned and the data is flushed: a reader never sees a half-written
+/// file, and a failure leaves no file behind. Errors are prefixed with the path.
+void write_file_atomically(const std::filesystem::path& path, const std::function<void(hid_t file)>& write);
 Handle open_file_read_only(const std::string& path);
 Handle create_group(hid_t parent, const std::string& name);
 Handle open_group(hid_t parent, const std::string& name);

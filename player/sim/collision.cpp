@@ -21,6 +21,7 @@ struct Contact {
   Side a, b;
   Vec3 normal;             ///< from b towards a
   double reach = 0;        ///< a and b touch when normal · (a − b) = reach
+  double gap = 0;          ///< normal · (a − b) − reach at the start of the step
   double restitution = 0, friction = 0;
   double approach = 0;     ///< normal relative velocity when detected
   double normal_impulse = 0;
@@ -36,17 +37,21 @@ class ContactSolver {
   ContactSolver(std::span<CollisionBody> bodies, std::span<Projectile> projectiles)
       : m_bodies(bodies), m_projectiles(projectiles) {}
 
-  [[nodiscard]] Vec3 position(const Side& s) const {
-    switch (s.kind) {
-      case Side::Kind::Static: return s.anchor;
-      case Side::Kind::Projectile: return m_projectiles[s.owner].position;
-      case Side::Kind::Embedded: {
-        const CollisionBody& b = m_bodies[s.owner];
-        return embedded_position(b.body->positions, b.body->elasticity().tets(), *b.points, s.point);
-      }
+  /// (barycentric weight, summed mass) of the free nodes of an embedded point's tet.
+  [[nodiscard]] std::pair<double, double> free_share(const Side& s) const {
+    const CollisionBody& b = m_bodies[s.owner];
+    const TetIndex t = b.points->tet[s.point];
+    const Vec4& w = b.points->barycentric[s.point];
+    double weight = 0.0, mass = 0.0;
+    for (int i = 0; i < 4; ++i) {
+      const NodeIndex n = b.body->elasticity().tets()(i, t);
+      if (b.body->pinned(n)) continue;
+      weight += w[i];
+      mass += b.body->node_masses()[n];
     }
-    return Vec3::Zero();
+    return {weight, mass};
   }
+
   [[nodiscard]] Vec3 velocity(const Side& s) const {
     switch (s.kind) {
       case Side::Kind::Static: return Vec3::Zero();
@@ -58,73 +63,70 @@ class ContactSolver {
     }
     return Vec3::Zero();
   }
-  /// How fast the point moves per unit impulse: Σ bᵢ² / mᵢ for an embedded point.
+  /// How fast the point moves per unit impulse. An embedded point's impulse moves its
+  /// tet's free nodes rigidly, each by J / M (M = their summed mass), so the point moves
+  /// by β J / M with β its barycentric weight on those nodes.
   [[nodiscard]] double inverse_mass(const Side& s) const {
     switch (s.kind) {
       case Side::Kind::Static: return 0.0;
       case Side::Kind::Projectile: return 1.0 / m_projectiles[s.owner].mass;
       case Side::Kind::Embedded: {
-        const CollisionBody& b = m_bodies[s.owner];
-        const TetIndex t = b.points->tet[s.point];
-        const Vec4& w = b.points->barycentric[s.point];
-        double sum = 0.0;
-        for (int i = 0; i < 4; ++i) sum += w[i] * w[i] * b.body->inverse_mass(b.body->elasticity().tets()(i, t));
-        return sum;
+        const auto [free_weight, free_mass] = free_share(s);
+        return free_mass > 0.0 ? free_weight / free_mass : 0.0;
       }
     }
     return 0.0;
   }
-  /// Applies `amount` (an impulse, or a mass-weighted displacement) at the side.
-  void apply(const Side& s, const Vec3& amount, bool to_positions) {
+  /// Applies the impulse `J` at the side.
+  void apply(const Side& s, const Vec3& J) {
     if (s.kind == Side::Kind::Projectile) {
-      Projectile& p = m_projectiles[s.owner];
-      (to_positions ? p.position : p.velocity) += amount / p.mass;
+      m_projectiles[s.owner].velocity += J / m_projectiles[s.owner].mass;
     } else if (s.kind == Side::Kind::Embedded) {
       CollisionBody& b = m_bodies[s.owner];
       const TetIndex t = b.points->tet[s.point];
-      const Vec4& w = b.points->barycentric[s.point];
-      Matrix3Xd& target = to_positions ? b.body->positions : b.body->velocities;
+      const double free_mass = free_share(s).second;
+      if (!(free_mass > 0.0)) return;
       for (int i = 0; i < 4; ++i) {
         const NodeIndex n = b.body->elasticity().tets()(i, t);
-        target.col(n) += w[i] * b.body->inverse_mass(n) * amount;
+        if (!b.body->pinned(n)) b.body->velocities.col(n) += J / free_mass;
       }
     }
   }
 
+  /// Speculative contacts: each contact may close its start-of-step gap during the step
+  /// but not cross it, i.e. the normal relative velocity must satisfy vₙ ≥ −gap / h.
+  /// Meeting that with impulses, and then moving from the start positions with the new
+  /// velocities, keeps positions and velocities consistent: a contact never teleports
+  /// nodes, which would store spurious elastic energy. An overlap left from earlier
+  /// steps is pushed out at kPushOut of its depth per step.
   void solve(std::vector<Contact>& contacts, const CollisionSettings& settings) {
-    // Positions: project every penetration out (Gauss–Seidel over the contacts).
-    for (int sweep = 0; sweep < settings.iterations; ++sweep) {
-      for (Contact& c : contacts) {
-        const double depth = c.reach - c.normal.dot(position(c.a) - position(c.b));
-        const double w = inverse_mass(c.a) + inverse_mass(c.b);
-        if (depth <= 0.0 || w <= 0.0) continue;
-        const Vec3 push = (depth / w) * c.normal;
-        apply(c.a, push, true);
-        apply(c.b, -push, true);
-      }
-    }
-    // Velocities: restitution only above a resting speed, so resting contact does not
-    // jitter; impulses are accumulated and clamped (non-negative, inside the cone).
-    const double resting_speed = 2.0 * settings.gravity.norm() * settings.dt;
+    constexpr double kPushOut = 0.2;
+    const double h = settings.dt;
+    // Restitution only above a resting speed, so resting contact does not jitter.
+    const double resting_speed = 2.0 * settings.gravity.norm() * h;
     for (Contact& c : contacts) c.approach = c.normal.dot(velocity(c.a) - velocity(c.b));
     for (int sweep = 0; sweep < settings.iterations; ++sweep) {
       for (Contact& c : contacts) {
         const double w = inverse_mass(c.a) + inverse_mass(c.b);
         if (w <= 0.0) continue;
+        const double speculative = c.gap >= 0.0 ? -c.gap / h : -kPushOut * c.gap / h;
+        double target = speculative;
+        if (c.approach < -resting_speed && c.approach < speculative) {
+          target = std::max(speculative, -c.restitution * c.approach);
+        }
         const Vec3 relative = velocity(c.a) - velocity(c.b);
-        const double target = c.approach < -resting_speed ? -c.restitution * c.approach : 0.0;
         const double accumulated = std::max(c.normal_impulse + (target - c.normal.dot(relative)) / w, 0.0);
         const Vec3 normal_step = (accumulated - c.normal_impulse) * c.normal;
         c.normal_impulse = accumulated;
-        apply(c.a, normal_step, false);
-        apply(c.b, -normal_step, false);
+        apply(c.a, normal_step);
+        apply(c.b, -normal_step);
         const Vec3 after = velocity(c.a) - velocity(c.b);
         const Vec3 tangential = after - c.normal.dot(after) * c.normal;
         Vec3 friction = c.friction_impulse - tangential / w;
         const double limit = c.friction * c.normal_impulse;
         if (friction.norm() > limit) friction *= limit / friction.norm();
-        apply(c.a, friction - c.friction_impulse, false);
-        apply(c.b, c.friction_impulse - friction, false);
+        apply(c.a, friction - c.friction_impulse);
+        apply(c.b, c.friction_impulse - friction);
         c.friction_impulse = friction;
       }
     }
@@ -205,15 +207,17 @@ void static_contacts(const Side& a, const SweptPoint& p, const ContactMaterial& 
     const double height = g.normal.dot(p.end) - g.offset;
     if (height < p.radius) {
       const ContactMaterial m = combine(material, g.material);
-      out.push_back({a, Side{.anchor = p.end - height * g.normal}, g.normal, p.radius, m.restitution, m.friction});
+      const double gap = g.normal.dot(p.start) - g.offset - p.radius;
+      out.push_back({a, Side{.anchor = p.end - height * g.normal}, g.normal, p.radius, gap, m.restitution, m.friction});
     }
   }
   for (const Box& box : environment.boxes) {
     if (const auto hit = box_contact(box, p)) {
       const ContactMaterial m = combine(material, box.material);
-      out.push_back({a, Side{.anchor = hit->second}, hit->first, p.radius, m.restitution, m.friction});
-      const Vec3 gap = p.end.cwiseMax(box.min).cwiseMin(box.max) - p.end;
-      if (gap.norm() >= p.radius) ++counts.swept;
+      const double gap = hit->first.dot(p.start - hit->second) - p.radius;
+      out.push_back({a, Side{.anchor = hit->second}, hit->first, p.radius, gap, m.restitution, m.friction});
+      const Vec3 outside = p.end.cwiseMax(box.min).cwiseMin(box.max) - p.end;
+      if (outside.norm() >= p.radius) ++counts.swept;
     }
   }
   for (const Ball& ball : environment.balls) {
@@ -222,7 +226,9 @@ void static_contacts(const Side& a, const SweptPoint& p, const ContactMaterial& 
     Vec3 normal = p.start + *s * (p.end - p.start) - ball.center;
     normal = normal.norm() > 0.0 ? Vec3(normal.normalized()) : Vec3(Vec3::UnitZ());
     const ContactMaterial m = combine(material, ball.material);
-    out.push_back({a, Side{.anchor = ball.center + ball.radius * normal}, normal, p.radius, m.restitution, m.friction});
+    const Vec3 anchor = ball.center + ball.radius * normal;
+    out.push_back({a, Side{.anchor = anchor}, normal, p.radius, normal.dot(p.start - anchor) - p.radius, m.restitution,
+                   m.friction});
     if ((p.end - ball.center).norm() >= p.radius + ball.radius) ++counts.swept;
   }
 }
@@ -236,7 +242,7 @@ void pair_contact(const Side& a, const SweptPoint& pa, const Side& b, const Swep
   Vec3 normal = (pa.start + *s * (pa.end - pa.start)) - (pb.start + *s * (pb.end - pb.start));
   if (!(normal.norm() > 0.0)) normal = pa.end - pb.end;
   normal = normal.norm() > 0.0 ? Vec3(normal.normalized()) : Vec3(Vec3::UnitZ());
-  out.push_back({a, b, normal, reach, m.restitution, m.friction});
+  out.push_back({a, b, normal, reach, normal.dot(pa.start - pb.start) - reach, m.restitution, m.friction});
   if ((pa.end - pb.end).norm() >= reach) ++counts.swept;
 }
 
@@ -403,6 +409,15 @@ ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environm
   }
   counts.contacts = contacts.size();
   ContactSolver(bodies, projectiles).solve(contacts, settings);
+  // Move from the start of the step with the corrected velocities.
+  for (CollisionBody& b : bodies) {
+    for (Index n = 0; n < b.body->node_count(); ++n) {
+      if (!b.body->pinned(n)) b.body->positions.col(n) = b.start_positions->col(n) + h * b.body->velocities.col(n);
+    }
+  }
+  for (std::size_t j = 0; j < projectiles.size(); ++j) {
+    if (projectiles[j].launched) projectiles[j].position = projectile_sweep[j].start + h * projectiles[j].velocity;
+  }
   return counts;
 }
 

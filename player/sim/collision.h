@@ -2,18 +2,28 @@
 /// Contacts between embedded collision points (the bake's spheres, or every render
 /// vertex in the reference mode), projectiles and static obstacles (thesis IV.H).
 ///
-/// Detection runs once per step on the end-of-step positions, with swept tests
-/// against the start-of-step positions so nothing fast passes through anything
-/// (see ContactCounts for which test caught what). Response is sequential impulses:
-///  - positions: every penetration is projected out along its normal, the correction
-///    split between the two sides by inverse mass, and spread to a tet's nodes by the
-///    point's barycentrics (node i moves bᵢ/mᵢ · λ);
-///  - velocities: the approach speed is removed (or reversed by the restitution) and
-///    Coulomb friction limits the tangential impulse, accumulated and clamped per contact.
-/// Deviation from the thesis: it moves each node by the largest offset of any sphere in
-/// its tet. That over-corrects when several spheres touch at once and does not conserve
-/// momentum between two moving bodies; mass-weighted impulses do both. Contacts are
-/// handled in a fixed order, so results do not depend on the thread count.
+/// Detection runs once per step, after the implicit solve, on the motion from the
+/// start-of-step positions to the solver's end positions; every test is swept, so
+/// nothing fast passes through anything (see ContactCounts).
+///
+/// Response is speculative contacts with sequential impulses (Catto, "Contact
+/// Manifolds", GDC 2007; speculative margin as in Box2D): each contact may close its
+/// start-of-step gap during the step but not cross it, vₙ ≥ −gap / h, plus restitution
+/// above a resting speed and Coulomb friction, with accumulated and clamped impulses.
+/// Positions are then re-integrated from the start of the step with the corrected
+/// velocities, so positions and velocities stay consistent.
+///
+/// Deviations from the thesis (IV.H), which offsets every node of a colliding tet by the
+/// largest offset of its spheres:
+///  - Offsetting positions without the matching velocities stores spurious elastic
+///    energy: on the bunny drop that was 7 J of strain energy out of 1 J of fall.
+///  - Taking the largest offset per node does not conserve momentum between two moving
+///    bodies; impulses do (the tet's nodes gain exactly the impulse).
+/// Kept from the thesis: a point embedded in a tet acts by moving the tet's free nodes
+/// rigidly (each by J / M, M their summed mass), so a contact never deforms the tet it
+/// acts on. (Spreading by barycentric weight over node mass instead throws light nodes
+/// — those in nearly empty tets — far.) Contacts are handled in a fixed order, so
+/// results do not depend on the thread count.
 
 #include <optional>
 #include <span>
@@ -80,7 +90,7 @@ struct CollisionSettings {
   double dt = 1.0 / 240.0;
   Vec3 gravity = Vec3(0, 0, -9.81);  ///< moves the projectiles
   bool self_collision = false;       ///< between fragments and between bodies
-  int iterations = 4;                ///< sequential-impulse sweeps (positions, then velocities)
+  int iterations = 8;                ///< sequential-impulse sweeps over all contacts
 };
 
 /// No tunnelling: every test is swept over the step (sphere–sphere by the exact time

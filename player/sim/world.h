@@ -39,7 +39,7 @@ struct WorldSettings {
   bool collisions = true;
   bool self_collision = false;
   CollisionPoints collision_points = CollisionPoints::Spheres;
-  int contact_iterations = 4;
+  int contact_iterations = 8;
 };
 
 /// What one step did, for reports.

@@ -1,36 +1,20 @@
 // End-to-end tests of the fissure-bake executable: exit codes, messages, outputs.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
-#include <cstdio>
 #include <fstream>
 
 #include "formats/cage_io.h"
 #include "tests/support/procedural.h"
+#include "tests/support/run_command.h"
 #include "tests/support/temp_dir.h"
 
 namespace fissure {
 namespace {
 
-struct Result {
-  int exit_code = -1;
-  std::string output;  ///< stdout and stderr together
-};
+using Result = testing::CommandResult;
+using testing::quoted;
 
-Result run(const std::string& arguments) {
-  const std::string command = std::string(FISSURE_BAKE_EXE) + " " + arguments + " 2>&1";
-  Result result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer{};
-  while (std::fgets(buffer.data(), buffer.size(), pipe) != nullptr) result.output += buffer.data();
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
-
-std::string quoted(const std::filesystem::path& path) { return "'" + path.string() + "'"; }
+Result run(const std::string& arguments) { return testing::run_command(std::string(FISSURE_BAKE_EXE) + " " + arguments); }
 
 std::string bytes_of(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);

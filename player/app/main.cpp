@@ -1,0 +1,66 @@
+// fissure-player: the runtime half of Fissure. A thin CLI over the sim library and
+// the scene reader; rendering (GLFW / OSMesa) is not built yet, so runs are headless.
+#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include <cstdio>
+#include <memory>
+
+#include "common/error.h"
+#include "common/log.h"
+#include "formats/scene.h"
+#include "player/app/run.h"
+
+int main(int argc, char** argv) {
+  using namespace fissure;
+  CLI::App app{"fissure-player: simulate baked Fissure bundles (corotational FEM, fracture, sphere collisions)"};
+  app.require_subcommand(1);
+  bool quiet = false, verbose = false;
+  app.add_flag("-q,--quiet", quiet, "Print only warnings, errors and the result");
+  app.add_flag("-v,--verbose", verbose, "Print debug detail");
+
+  CLI::App* run = app.add_subcommand("run", "Simulate a scene file (see docs/scene-example.toml)");
+  std::string scene_path;
+  player::RunOptions options;
+  bool no_render = false;
+  int threads = -1;
+  std::string report, trajectory;
+  run->add_option("scene", scene_path, "Scene file (TOML)")->required();
+  run->add_flag("--no-render", no_render, "Simulate without a window or frames (required: the renderer is not built yet)");
+  run->add_option("--steps", options.steps, "Number of steps of solver.dt")->capture_default_str();
+  run->add_option("--report", report, "Write a JSON report (timings per phase, energy, momentum, fragments, penetration)");
+  run->add_option("--trajectory", trajectory, "Write node trajectories and fracture events (HDF5)");
+  run->add_option("--trajectory-every", options.trajectory_every, "Record every k-th step in the trajectory")
+      ->capture_default_str();
+  run->add_option("-j,--threads", threads, "Worker threads (default: solver.threads of the scene; 0 = all cores)");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  set_log_level(quiet ? LogLevel::Warning : (verbose ? LogLevel::Debug : LogLevel::Info));
+  try {
+    if (!no_render) {
+      throw Error("this build has no renderer yet", "pass --no-render to simulate headless");
+    }
+    const formats::Scene scene = formats::read_scene(scene_path);
+    const int wanted = threads >= 0 ? threads : scene.solver.threads;
+    std::unique_ptr<tbb::global_control> limit;
+    if (wanted > 0) {
+      limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(wanted));
+    }
+    options.report = report;
+    options.trajectory = trajectory;
+    return player::run_scene(scene, options);
+  } catch (const Error& e) {
+    std::fputs(format_error(e).c_str(), stderr);
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "internal error: %s\nhint: this is a bug in fissure-player; please report it with the scene\n",
+                 e.what());
+    return 2;
+  }
+}

@@ -1,0 +1,147 @@
+#include "player/app/scene_loader.h"
+
+#include <cmath>
+#include <numbers>
+
+#include "common/error.h"
+#include "common/log.h"
+#include "formats/bundle.h"
+
+namespace fissure::player {
+
+namespace {
+
+sim::ContactMaterial contact(double restitution, double friction) { return {restitution, friction}; }
+
+/// Every render vertex once, bound to the first (triangle, tet) instance that has it.
+sim::EmbeddedPoints render_vertices(const formats::Bundle& bundle) {
+  const auto& e = bundle.embedding;
+  const std::size_t vertex_count = bundle.render.vertex_count();
+  std::vector<std::size_t> first(vertex_count, SIZE_MAX);
+  std::vector<Vec4> barycentric(vertex_count);
+  for (std::size_t i = 0; i < e.instance_count(); ++i) {
+    for (int corner = 0; corner < 3; ++corner) {
+      const Index v = bundle.render.triangles(corner, e.instance_triangle[i]);
+      if (first[v] != SIZE_MAX) continue;
+      first[v] = i;
+      barycentric[v] = e.instance_barycentric[i].col(corner);
+    }
+  }
+  sim::EmbeddedPoints points;
+  for (std::size_t v = 0; v < vertex_count; ++v) {
+    if (first[v] == SIZE_MAX) continue;  // a vertex no triangle uses
+    points.tet.push_back(e.instance_tet[first[v]]);
+    points.barycentric.push_back(barycentric[v]);
+    points.radius.push_back(0.0);
+  }
+  return points;
+}
+
+sim::BodyDescription describe(const formats::Scene& scene, std::size_t index, const formats::Bundle& bundle) {
+  const formats::SceneObject& object = scene.objects[index];
+  const std::string where = scene.file.string() + ":" + std::to_string(object.line) + ": object[" +
+                            std::to_string(index) + "] '" + object.name + "'";
+  sim::BodyDescription d;
+  d.name = object.name;
+  const Eigen::AngleAxisd rotation(object.rotation_degrees * std::numbers::pi / 180.0, object.rotation_axis);
+  d.rest = (rotation.toRotationMatrix() * (object.scale * bundle.cage.rest_positions)).colwise() + object.translation;
+  d.tets = bundle.cage.tets;
+  const formats::SceneMaterial& m = object.material;
+  d.material = {m.density, m.youngs_modulus, m.poisson_ratio, m.rayleigh_mass, m.rayleigh_stiffness};
+  d.toughness = m.toughness;
+  d.contact = contact(m.restitution, m.friction);
+  if (bundle.collision) {
+    const formats::Collision& c = *bundle.collision;
+    d.spheres.tet = c.sphere_tet;
+    d.spheres.barycentric = c.sphere_barycentric;
+    d.spheres.radius = c.sphere_radius;
+    for (double& r : d.spheres.radius) r *= object.scale;
+    if (scene.features.mass_weighting) d.mass = sim::MassDistribution{c.mass_fraction, c.center_of_mass};
+  } else {
+    log_warning(where + ": the bundle has no collision stage: using one inscribed sphere per tet and uniform mass");
+  }
+  d.vertices = render_vertices(bundle);
+  const auto node_count = static_cast<Index>(d.rest.cols());
+  std::vector<std::uint8_t> pinned(node_count, 0);
+  for (const Index n : object.pin_nodes) {
+    if (n >= node_count) {
+      throw Error(where + ": pinned node " + std::to_string(n) + " does not exist (the cage has " +
+                      std::to_string(node_count) + " nodes)",
+                  "node indices are 0-based; `fissure-bake inspect` shows the cage size");
+    }
+    pinned[n] = 1;
+  }
+  for (const formats::ScenePinBox& box : object.pin_boxes) {
+    std::size_t hits = 0;
+    for (Index n = 0; n < node_count; ++n) {
+      const Vec3 x = d.rest.col(n);
+      if ((x.array() >= box.min.array()).all() && (x.array() <= box.max.array()).all()) {
+        pinned[n] = 1;
+        ++hits;
+      }
+    }
+    if (hits == 0) {
+      log_warning(where + ": a pin box holds no cage node (boxes are in world coordinates, after the transform)");
+    }
+  }
+  for (Index n = 0; n < node_count; ++n) {
+    if (pinned[n]) d.pinned.push_back(n);
+  }
+  const Vec3 centroid = d.rest.rowwise().mean();
+  d.velocity.resize(3, node_count);
+  for (Index n = 0; n < node_count; ++n) {
+    d.velocity.col(n) = object.velocity + object.angular_velocity.cross(d.rest.col(n) - centroid);
+  }
+  return d;
+}
+
+}  // namespace
+
+LoadedScene load_scene(const formats::Scene& scene) {
+  std::vector<sim::BodyDescription> bodies;
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+    const formats::SceneObject& object = scene.objects[i];
+    if (!std::filesystem::exists(object.bundle)) {
+      throw Error(scene.file.string() + ":" + std::to_string(object.line) + ": object[" + std::to_string(i) +
+                      "].bundle " + object.bundle.string() + " does not exist",
+                  "paths are relative to the scene file's folder; bake the bundle with `fissure-bake bake` first");
+    }
+    const formats::Bundle bundle = formats::read_bundle(object.bundle);
+    bodies.push_back(describe(scene, i, bundle));
+    names.push_back(object.bundle.filename().string());
+  }
+  sim::Environment environment;
+  if (scene.ground.enabled) {
+    environment.ground = sim::Plane{scene.ground.normal, scene.ground.offset,
+                                    contact(scene.ground.restitution, scene.ground.friction)};
+  }
+  for (const auto& b : scene.boxes) environment.boxes.push_back({b.min, b.max, contact(b.restitution, b.friction)});
+  for (const auto& s : scene.spheres) {
+    environment.balls.push_back({s.center, s.radius, contact(s.restitution, s.friction)});
+  }
+  std::vector<sim::Projectile> projectiles;
+  for (const auto& p : scene.projectiles) {
+    projectiles.push_back({p.position, p.velocity, p.radius, p.mass, p.launch_time, contact(p.restitution, p.friction)});
+  }
+  sim::WorldSettings settings;
+  settings.step.dt = scene.solver.dt;
+  settings.step.gravity = scene.gravity;
+  settings.step.solver = scene.solver.solver == formats::SceneSolver::Direct ? sim::LinearSolver::Direct
+                                                                             : sim::LinearSolver::ConjugateGradient;
+  settings.step.stiffness = scene.solver.stiffness == formats::SceneStiffness::Exact ? sim::StiffnessModel::Exact
+                                                                                     : sim::StiffnessModel::Warped;
+  settings.step.tolerance = scene.solver.tolerance;
+  settings.step.max_iterations = scene.solver.max_iterations;
+  settings.min_dt = scene.solver.min_dt;
+  settings.fracture = scene.features.fracture;
+  settings.max_splits_per_step = scene.solver.max_splits_per_step;
+  settings.collisions = scene.features.collisions;
+  settings.self_collision = scene.features.self_collision;
+  settings.collision_points = scene.features.collision_mode == formats::SceneCollisionMode::Vertices
+                                  ? sim::CollisionPoints::RenderVertices
+                                  : sim::CollisionPoints::Spheres;
+  return {sim::World(std::move(bodies), std::move(environment), std::move(projectiles), settings), std::move(names)};
+}
+
+}  // namespace fissure::player

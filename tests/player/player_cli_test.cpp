@@ -1,0 +1,95 @@
+// End-to-end tests of the fissure-player executable: a scene over a real bundle file,
+// its report and trajectory, and the errors a user meets.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "formats/bundle.h"
+#include "tests/support/run_command.h"
+#include "tests/support/temp_dir.h"
+#include "tests/support/two_tet_bundle.h"
+
+namespace fissure {
+namespace {
+
+using testing::quoted;
+
+testing::CommandResult player(const std::string& arguments) {
+  return testing::run_command(std::string(FISSURE_PLAYER_EXE) + " " + arguments);
+}
+
+std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+/// A two-tet bundle (no collision stage: the player falls back to inscribed spheres)
+/// resting 0.5 m above the ground, with the scene text after `[[object]]` appended.
+class PlayerCli : public ::testing::Test {
+ protected:
+  void SetUp() override { formats::write_bundle(dir.path() / "two.h5", testing::two_tet_bundle()); }
+
+  std::filesystem::path scene(const std::string& extra_object_keys, const std::string& tail = "") {
+    const std::filesystem::path path = dir.path() / "scene.toml";
+    std::ofstream(path) << "[solver]\ndt = 0.004\n\n[environment.ground]\n\n[[object]]\nbundle = \"two.h5\"\n"
+                           "translation = [0, 0, 0.5]\n"
+                        << extra_object_keys << "\n" << tail;
+    return path;
+  }
+
+  testing::TempDir dir;
+};
+
+TEST_F(PlayerCli, RunsHeadlessAndWritesReportAndTrajectory) {
+  const auto report = dir.path() / "report.json", trajectory = dir.path() / "trajectory.h5";
+  const auto result = player("run " + quoted(scene("")) + " --no-render --steps 250 --report " + quoted(report) +
+                             " --trajectory " + quoted(trajectory) + " --trajectory-every 50");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  for (const char* phase : {"forces", "assembly", "solve", "fracture", "collisions"}) {
+    EXPECT_NE(result.output.find(phase), std::string::npos) << phase;
+  }
+  const std::string json = read_text(report);
+  for (const char* key : {"\"timings\"", "\"energy_final_J\"", "\"linear_momentum_final\"", "\"fragments\"",
+                          "\"sphere_penetration_max_m\"", "\"vertex_penetration_max_m\"", "\"no_tunnelling\""}) {
+    EXPECT_NE(json.find(key), std::string::npos) << key;
+  }
+  EXPECT_TRUE(std::filesystem::exists(trajectory));
+  EXPECT_NE(result.output.find("(6 frames)"), std::string::npos) << result.output;  // steps 0, 50, …, 250
+  // No temporary files are left beside the outputs.
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
+    EXPECT_EQ(entry.path().string().find(".tmp"), std::string::npos) << entry.path();
+  }
+}
+
+TEST_F(PlayerCli, WithoutNoRenderItSaysTheRendererIsMissing) {
+  const auto result = player("run " + quoted(scene("")));
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.output.find("--no-render"), std::string::npos) << result.output;
+}
+
+TEST_F(PlayerCli, SceneErrorsNameTheFileLineAndKey) {
+  const auto result = player("run " + quoted(scene("youngs_modulus = 3")) + " --no-render --steps 1");
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.output.find("scene.toml:9"), std::string::npos) << result.output;
+  EXPECT_NE(result.output.find("youngs_modulus"), std::string::npos) << result.output;
+}
+
+TEST_F(PlayerCli, MissingBundleAndBadPinsAreErrorsNamingTheObject) {
+  std::ofstream(dir.path() / "missing.toml") << "[[object]]\nbundle = \"nowhere.h5\"\n";
+  auto result = player("run " + quoted(dir.path() / "missing.toml") + " --no-render --steps 1");
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.output.find("missing.toml:1: object[0].bundle"), std::string::npos) << result.output;
+
+  result = player("run " + quoted(scene("[[object.pin]]\nnodes = [7]")) + " --no-render --steps 1");
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.output.find("pinned node 7 does not exist"), std::string::npos) << result.output;
+}
+
+TEST_F(PlayerCli, BadRunOptionsAreErrors) {
+  const auto result = player("run " + quoted(scene("")) + " --no-render --steps -3");
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.output.find("--steps"), std::string::npos) << result.output;
+}
+
+}  // namespace
+}  // namespace fissure
