@@ -1,12 +1,18 @@
 #!/usr/bin/env bash
 # The main job on the bundled sample: bake the 5,000-triangle Stanford bunny into its
-# 987-tet cage, then inspect and verify the bundle. Output: out/bunny-5k.h5.
+# 987-tet cage, inspect and verify the bundle, then play data/scenes/bunny-drop.toml
+# headless (the bunny drops, a ball hits it, it cracks).
+# Outputs: out/bunny-5k.h5, out/bunny-drop-report.json (timings and summary),
+# out/bunny-drop-trajectory.h5 (node positions and fracture events).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/build.sh release --target fissure-bake
+bash scripts/build.sh release --target fissure-bake fissure-player
 bake=build/release/bake/fissure-bake
 mkdir -p out
 "$bake" bake --mesh data/meshes/bunny-5k.obj --cage data/cages/bunny-5k-cage-987.node -o out/bunny-5k.h5
 "$bake" inspect out/bunny-5k.h5
 "$bake" verify out/bunny-5k.h5
-echo "done: out/bunny-5k.h5 (inspect it with: $bake inspect out/bunny-5k.h5 --json, or h5dump -H)"
+build/release/player/app/fissure-player run data/scenes/bunny-drop.toml --no-render --steps 480 \
+  --report out/bunny-drop-report.json --trajectory out/bunny-drop-trajectory.h5 --trajectory-every 4
+echo "done: out/bunny-5k.h5, out/bunny-drop-report.json, out/bunny-drop-trajectory.h5"
+echo "(inspect the bundle with: $bake inspect out/bunny-5k.h5 --json, or h5dump -H)"
