@@ -358,7 +358,12 @@ ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environm
                    contacts, counts);
     }
   }
-  if (settings.self_collision) {
+  // One body in one piece has nothing to collide with itself: skip the broad phase.
+  const bool several_pieces = bodies.size() > 1 || (!bodies.empty() && [&] {
+    const auto& fragment = *bodies.front().tet_fragment;
+    return std::any_of(fragment.begin(), fragment.end(), [](Index f) { return f != 0; });
+  }());
+  if (settings.self_collision && several_pieces) {
     // Spatial hash over the swept bounds of every point with a radius; pairs in the same
     // fragment of the same body are skipped (they are held together elastically).
     double cell = 0.0;
