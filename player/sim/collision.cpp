@@ -159,8 +159,10 @@ std::optional<std::pair<Vec3, Vec3>> box_contact(const Box& box, const SweptPoin
       }
       double t0 = (lo[k] - p.start[k]) / d[k], t1 = (hi[k] - p.start[k]) / d[k];
       if (t0 > t1) std::swap(t0, t1);
-      if (t0 > enter) {
-        enter = t0;
+      // `axis < 0 && t0 >= enter`: a point that starts exactly on the grown box's face
+      // (where the previous step's contact left it) and moves in enters at s = 0.
+      if (t0 > enter || (axis < 0 && t0 >= enter)) {
+        enter = std::max(t0, 0.0);
         axis = k;
       }
       leave = std::min(leave, t1);
