@@ -1,5 +1,6 @@
 #include "player/sim/world.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -13,22 +14,27 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-/// One sphere per tet, inscribed at the centroid: the stand-in when a bundle has no
-/// baked spheres. Coarse (it ignores where the surface is), but never empty.
+/// One sphere per tet, at its centroid, as large as fits inside the tet: the stand-in
+/// when a bundle has no baked spheres. Coarse (it ignores where the surface is), but
+/// never empty. The centroid is a quarter of each face's height from that face, so the
+/// radius is 3V / (4 · largest face area). (The inradius 3V / total area is larger
+/// whenever a face exceeds a quarter of the total: it poked out of the Kuhn tets of a
+/// grid by 0.03 of the edge, so face neighbours' spheres overlapped, and the moment
+/// fracture put them in different fragments, self-collision threw them apart.)
 EmbeddedPoints inscribed_spheres(const Matrix3Xd& rest, const Matrix4Xu& tets) {
   EmbeddedPoints points;
   for (TetIndex t = 0; t < static_cast<TetIndex>(tets.cols()); ++t) {
     Mat3 edges;
     const Vec3 x0 = rest.col(tets(0, t));
     edges << rest.col(tets(1, t)) - x0, rest.col(tets(2, t)) - x0, rest.col(tets(3, t)) - x0;
-    double area = 0.0;
+    double largest_face = 0.0;
     for (const auto& face : kTetFaceNodes) {
       const Vec3 a = rest.col(tets(face[0], t)), b = rest.col(tets(face[1], t)), c = rest.col(tets(face[2], t));
-      area += 0.5 * (b - a).cross(c - a).norm();
+      largest_face = std::max(largest_face, 0.5 * (b - a).cross(c - a).norm());
     }
     points.tet.push_back(t);
     points.barycentric.push_back(Vec4::Constant(0.25));
-    points.radius.push_back(3.0 * (edges.determinant() / 6.0) / area);
+    points.radius.push_back(3.0 * (edges.determinant() / 6.0) / (4.0 * largest_face));
   }
   return points;
 }

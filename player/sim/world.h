@@ -69,7 +69,7 @@ struct Body {
 class World {
  public:
   /// Throws fissure::Error on invalid input. A body without baked spheres gets one
-  /// sphere per tet, inscribed at its centroid, so collisions still work.
+  /// sphere per tet, at its centroid and inside the tet, so collisions still work.
   World(std::vector<BodyDescription> bodies, Environment environment, std::vector<Projectile> projectiles,
         WorldSettings settings);
 
