@@ -8,6 +8,7 @@
 #include "common/tet_mesh.h"
 #include "player/sim/world.h"
 #include "tests/support/procedural.h"
+#include "tests/support/sim_fixtures.h"
 
 namespace fissure::sim {
 namespace {
@@ -86,14 +87,7 @@ TEST(Penetration, DepthsAgainstEachObstacle) {
 
 // --- Scenes ---------------------------------------------------------------------------
 
-BodyDescription describe(const std::string& name, const TetMesh& cage, const Material& material) {
-  BodyDescription d;
-  d.name = name;
-  d.rest = cage.rest_positions;
-  d.tets = cage.tets;
-  d.material = material;
-  return d;
-}
+using testing::describe;
 
 /// Every node as a render vertex: a point with barycentric 1 on it, in the first tet that uses it.
 EmbeddedPoints nodes_as_vertices(const TetMesh& cage) {

@@ -7,19 +7,13 @@
 
 #include "common/error.h"
 #include "tests/support/procedural.h"
+#include "tests/support/sim_fixtures.h"
 
 namespace fissure::sim {
 namespace {
 
-Matrix3Xd perturbed(const Matrix3Xd& x, double amount, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-amount, amount);
-  Matrix3Xd out = x;
-  for (Eigen::Index i = 0; i < out.size(); ++i) out.data()[i] += u(rng);
-  return out;
-}
-
-Mat3 rotation(double angle, const Vec3& axis) { return Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix(); }
+using testing::perturbed;
+using testing::rotation;
 
 struct Fixture {
   TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(2.0, 1.0, 1.0), 2, 1, 1);

@@ -8,19 +8,13 @@
 #include "player/sim/corotated_elasticity.h"
 #include "player/sim/implicit_integrator.h"
 #include "tests/support/procedural.h"
+#include "tests/support/sim_fixtures.h"
 
 namespace fissure::sim {
 namespace {
 
-Matrix3Xd perturbed(const Matrix3Xd& x, double amount, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-amount, amount);
-  Matrix3Xd out = x;
-  for (Eigen::Index i = 0; i < out.size(); ++i) out.data()[i] += u(rng);
-  return out;
-}
-
-Mat3 rotation(double angle, const Vec3& axis) { return Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix(); }
+using testing::perturbed;
+using testing::rotation;
 
 Mat3 deformation_gradient(const CorotatedElasticity& e, const Matrix3Xd& x, TetIndex t) {
   Mat3 F = Mat3::Zero();

@@ -12,18 +12,12 @@
 
 #include "common/error.h"
 #include "tests/support/procedural.h"
+#include "tests/support/sim_fixtures.h"
 
 namespace fissure::sim {
 namespace {
 
-BodyDescription describe(const std::string& name, const TetMesh& cage, const Material& material) {
-  BodyDescription d;
-  d.name = name;
-  d.rest = cage.rest_positions;
-  d.tets = cage.tets;
-  d.material = material;
-  return d;
-}
+using testing::describe;
 
 /// FNV-1a over the bytes of everything that moves: any difference in any bit changes it.
 class Hasher {
