@@ -11,6 +11,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libglfw3-dev libosmesa6-dev libgl-dev
   libssl-dev
+  libsuitesparse-dev
+  libbullet-dev
 )
 
 missing=()
