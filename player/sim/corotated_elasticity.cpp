@@ -44,7 +44,41 @@ SignedSvd signed_svd(const Mat3& F) {
   return out;
 }
 
+namespace {
+
+/// Q⁻ᵀ from Q's columns: (q₁×q₂, q₂×q₀, q₀×q₁) / det Q.
+Mat3 inverse_transpose(const Mat3& Q, double det) {
+  Mat3 out;
+  out.col(0) = Q.col(1).cross(Q.col(2)) / det;
+  out.col(1) = Q.col(2).cross(Q.col(0)) / det;
+  out.col(2) = Q.col(0).cross(Q.col(1)) / det;
+  return out;
+}
+
+/// Below this det F / (‖F‖/√3)³ (1 for a rotation times a uniform scale) the Newton
+/// iteration converges slowly and loses digits: the SVD handles those tets.
+constexpr double kNewtonMinRelativeDeterminant = 1e-3;
+constexpr int kNewtonMaxIterations = 12;
+
+}  // namespace
+
 Mat3 polar_rotation(const Mat3& F) {
+  // Higham's Newton iteration Q ← ½ (γ Q + Q⁻ᵀ/γ), γ = |det Q|^(−1/3), converges
+  // quadratically to the polar rotation for det F > 0. It is about 10× cheaper than a
+  // Jacobi SVD, which dominated the element loop.
+  const double mean_square = F.squaredNorm() / 3.0;
+  double det = F.determinant();
+  if (std::isfinite(det) && det > kNewtonMinRelativeDeterminant * mean_square * std::sqrt(mean_square)) {
+    Mat3 Q = F;
+    for (int k = 0; k < kNewtonMaxIterations; ++k) {
+      const double gamma = 1.0 / std::cbrt(det);
+      const Mat3 next = 0.5 * (gamma * Q + inverse_transpose(Q, det) / gamma);
+      const double change = (next - Q).squaredNorm();
+      Q = next;
+      if (change < 1e-24) return Q;  // quadratic: the next change would be ~1e-24 squared
+      det = Q.determinant();
+    }
+  }
   const SignedSvd svd = signed_svd(F);
   return svd.U * svd.V.transpose();
 }
@@ -113,19 +147,29 @@ void CorotatedElasticity::add_forces(const Matrix3Xd& x, const std::vector<Mat3>
 
 Mat12 CorotatedElasticity::stiffness(TetIndex t, const Mat3& Q) const {
   // Column (3j + a) is the force change for a unit move of node j along axis a:
-  // dF = e_a g_jᵀ, dε = sym(Qᵀ dF), dσ = 2μ dε + λ tr(dε) I, df_i = −V Q dσ g_i.
-  const auto& g = m_gradients[t];
+  // dF = e_a gⱼᵀ, dε = sym(Qᵀ dF), dσ = 2μ dε + λ tr(dε) I, dfᵢ = −V Q dσ gᵢ, which
+  // simplifies to warped_block (ĝ = Q g).
+  const Mat34 rotated = Q * m_gradients[t];
   Mat12 K;
-  for (int j = 0; j < 4; ++j) {
-    for (int a = 0; a < 3; ++a) {
-      const Mat3 dS = Q.transpose() * (Vec3::Unit(a) * g.col(j).transpose());
-      const Mat3 dstrain = 0.5 * (dS + dS.transpose());
-      const Mat3 dstress = 2.0 * m_mu * dstrain + m_lambda * dstrain.trace() * Mat3::Identity();
-      const Mat3 dP = Q * dstress;
-      for (int i = 0; i < 4; ++i) K.block<3, 1>(3 * i, 3 * j + a) = -m_volume[t] * dP * g.col(i);
-    }
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) K.block<3, 3>(3 * i, 3 * j) = warped_block(t, rotated, i, j);
   }
   return K;
+}
+
+Mat34 CorotatedElasticity::stiffness_times(TetIndex t, const ElementBuffers& buffers, const Mat34& u) const {
+  if (buffers.model == StiffnessModel::Exact) {
+    const Mat12& K = buffers.stiffness[t];
+    Eigen::Matrix<double, 12, 1> stacked;
+    for (int j = 0; j < 4; ++j) stacked.segment<3>(3 * j) = u.col(j);
+    const Eigen::Matrix<double, 12, 1> product = K * stacked;
+    return Eigen::Map<const Mat34>(product.data());
+  }
+  const Mat34& rotated = buffers.rotated_gradients[t];
+  const Mat3 W = u * rotated.transpose();
+  Mat3 stress = m_mu * (W + W.transpose());
+  stress.diagonal().array() += m_lambda * W.trace();
+  return (-m_volume[t]) * stress * rotated;
 }
 
 Mat12 CorotatedElasticity::exact_stiffness(TetIndex t, const Matrix3Xd& x, bool project) const {
@@ -175,20 +219,29 @@ Mat12 CorotatedElasticity::exact_stiffness(TetIndex t, const Mat3& F, const Sign
 void CorotatedElasticity::evaluate(const Matrix3Xd& x, StiffnessModel model, bool with_stress,
                                    ElementBuffers& out) const {
   const std::size_t count = tet_count();
+  out.model = model;
   out.rotations.resize(count);
+  out.rotated_gradients.resize(count);
   out.forces.resize(count);
-  out.stiffness.resize(count);
+  out.stiffness.resize(model == StiffnessModel::Exact ? count : 0);
   out.stress.resize(with_stress ? count : 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 256), [&](const tbb::blocked_range<std::size_t>& range) {
     for (std::size_t index = range.begin(); index != range.end(); ++index) {
       const auto t = static_cast<TetIndex>(index);
       const Mat3 F = deformation_gradient(x, t);
-      const SignedSvd svd = signed_svd(F);
-      const Mat3 Q = svd.U * svd.V.transpose();
+      Mat3 Q;
+      if (model == StiffnessModel::Exact) {
+        const SignedSvd svd = signed_svd(F);  // the exact Hessian needs the singular values
+        Q = svd.U * svd.V.transpose();
+        out.stiffness[index] = exact_stiffness(t, F, svd, true);
+      } else {
+        Q = polar_rotation(F);
+      }
       const Mat3 sigma = stress(Q, F);
       out.rotations[index] = Q;
+      out.rotated_gradients[index] = Q * m_gradients[t];
+      // fᵢ = −V Q σ gᵢ = −V Q σ Qᵀ ĝᵢ.
       out.forces[index] = -m_volume[t] * (Q * sigma) * m_gradients[t];
-      out.stiffness[index] = model == StiffnessModel::Warped ? stiffness(t, Q) : exact_stiffness(t, F, svd, true);
       if (with_stress) out.stress[index] = Q * sigma * Q.transpose();
     }
   });

@@ -38,15 +38,21 @@ struct SignedSvd {
 SignedSvd signed_svd(const Mat3& F);
 
 /// The rotation of F's polar decomposition, proper (det = +1) even when F is inverted
-/// or degenerate.
+/// or degenerate. Well-conditioned F with det F > 0 (nearly every tet, nearly every
+/// step) takes Higham's scaled Newton iteration, a few 3×3 inverses; inverted, flat or
+/// collapsed tets take signed_svd. Both give the same rotation where both apply.
 Mat3 polar_rotation(const Mat3& F);
 
 /// Per-tet results of one evaluation, written by tet index from any thread and read
 /// back in tet order, so sums over them do not depend on the thread count.
 struct ElementBuffers {
+  StiffnessModel model = StiffnessModel::Warped;
   std::vector<Mat3> rotations;
+  /// Q gᵢ per tet (columns): with the rest gradients they give the warped stiffness in
+  /// closed form (CorotatedElasticity::warped_block), so no 12×12 matrix is stored.
+  std::vector<Mat34> rotated_gradients;
   std::vector<Mat34> forces;      ///< column i: elastic force on the tet's node i [N]
-  std::vector<Mat12> stiffness;   ///< ∂f/∂x of the tet (node-major rows and columns)
+  std::vector<Mat12> stiffness;   ///< exact model only: ∂f/∂x of the tet (node-major); empty when warped
   std::vector<Mat3> stress;       ///< world-frame stress Q σ Qᵀ [Pa]; filled only on request
 };
 
@@ -78,6 +84,23 @@ class CorotatedElasticity {
 
   /// K_t = ∂f_t/∂x_t with Q_t frozen, rows/columns ordered node-major (node 0 x,y,z, …).
   [[nodiscard]] Mat12 stiffness(TetIndex t, const Mat3& rotation) const;
+
+  /// Block (i, j) of the warped K_t from the rotated gradients ĝ = Q g:
+  ///   K_ij = −V (μ (gᵢ·gⱼ) I + μ ĝⱼ ĝᵢᵀ + λ ĝᵢ ĝⱼᵀ).
+  /// About 40 flops, against 144 stored values for the whole 12×12 matrix.
+  [[nodiscard]] Mat3 warped_block(TetIndex t, const Mat34& rotated_gradients, int i, int j) const {
+    const Mat34& g = m_gradients[t];
+    const double v = m_volume[t];
+    Mat3 block = (-v * m_mu) * rotated_gradients.col(j) * rotated_gradients.col(i).transpose() -
+                 (v * m_lambda) * rotated_gradients.col(i) * rotated_gradients.col(j).transpose();
+    block.diagonal().array() -= v * m_mu * g.col(i).dot(g.col(j));
+    return block;
+  }
+
+  /// K_t u_t for the tet's four node vectors u (columns), from the last evaluation's
+  /// buffers, in either stiffness model. Warped: with W = Σⱼ uⱼ ĝⱼᵀ,
+  /// (K u)ᵢ = −V (μ (W + Wᵀ) + λ tr(W) I) ĝᵢ.
+  [[nodiscard]] Mat34 stiffness_times(TetIndex t, const ElementBuffers& buffers, const Mat34& u) const;
 
   /// The exact K_t = ∂f_t/∂x_t at x (rotation differentiated). With `project` its
   /// indefinite part is clamped so that −K_t is positive semi-definite.

@@ -141,7 +141,7 @@ void separation_field(const ImplicitIntegrator& body, SeparationField& out) {
       const Mat3 negative = elements.stress[t] - positive;
       // f_i = −V σ_world (Q gᵢ): the same split as the elastic forces, in world axes.
       const double volume = elasticity.rest_volume(static_cast<TetIndex>(t));
-      const Mat34 gradients = elements.rotations[t] * elasticity.shape_gradients(static_cast<TetIndex>(t));
+      const Mat34& gradients = elements.rotated_gradients[t];
       tensile[t] = -volume * positive * gradients;
       compressive[t] = -volume * negative * gradients;
     }

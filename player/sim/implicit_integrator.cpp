@@ -1,12 +1,15 @@
 #include "player/sim/implicit_integrator.h"
 
-#include <Eigen/IterativeLinearSolvers>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <chrono>
 #include <string>
 
 #include "common/assert.h"
 #include "common/error.h"
+#include "player/sim/conjugate_gradient.h"
 
 namespace fissure::sim {
 
@@ -113,60 +116,99 @@ NodeIndex ImplicitIntegrator::split_node(NodeIndex node, std::span<const std::pa
 void ImplicitIntegrator::build_pattern() {
   const Index nodes = node_count();
   m_dof.assign(nodes, kInvalidIndex);
-  Index rows = 0;
+  m_free_nodes.clear();
   for (Index n = 0; n < nodes; ++n) {
     if (!m_pinned[n]) {
-      m_dof[n] = rows;
-      rows += 3;
+      m_dof[n] = 3 * static_cast<Index>(m_free_nodes.size());
+      m_free_nodes.push_back(n);
     }
   }
-  // Pattern: the diagonal (mass) plus one 3×3 block per pair of free nodes sharing a tet.
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(static_cast<std::size_t>(rows) * 3 + m_elasticity.tet_count() * 144);
-  for (Index n = 0; n < nodes; ++n) {
-    if (m_dof[n] == kInvalidIndex) continue;
-    for (int a = 0; a < 3; ++a) {
-      for (int b = 0; b < 3; ++b) entries.emplace_back(m_dof[n] + a, m_dof[n] + b, 0.0);
-    }
-  }
+  const Index free_count = m_free_nodes.size();
   const Matrix4Xu& tets = m_elasticity.tets();
-  for (TetIndex t = 0; t < m_elasticity.tet_count(); ++t) {
-    for (int i = 0; i < 4; ++i) {
-      for (int j = 0; j < 4; ++j) {
-        const Index ri = m_dof[tets(i, t)], cj = m_dof[tets(j, t)];
-        if (ri == kInvalidIndex || cj == kInvalidIndex) continue;
-        for (int a = 0; a < 3; ++a) {
-          for (int b = 0; b < 3; ++b) entries.emplace_back(ri + a, cj + b, 0.0);
-        }
-      }
-    }
-  }
-  m_matrix.resize(rows, rows);
-  m_matrix.setFromTriplets(entries.begin(), entries.end());
-  m_matrix.makeCompressed();
-  // Where each block column lives in the compressed storage, so steps refill in place.
-  auto locate = [&](Index row, Index column) -> double* {
-    const int* begin = m_matrix.innerIndexPtr() + m_matrix.outerIndexPtr()[column];
-    const int* end = m_matrix.innerIndexPtr() + m_matrix.outerIndexPtr()[column + 1];
-    const int* found = std::lower_bound(begin, end, static_cast<int>(row));
-    FISSURE_ASSERT(found != end && *found == static_cast<int>(row));
-    return m_matrix.valuePtr() + (found - m_matrix.innerIndexPtr());
+  const std::size_t tet_count = m_elasticity.tet_count();
+
+  // Every (column node, row node, tet, i, j) term, sorted: blocks come out grouped by
+  // column then row, and each block's terms in tet order.
+  struct Term {
+    Index column, row;
+    BlockTerm term;
   };
-  m_blocks.assign(m_elasticity.tet_count(), {});
-  for (TetIndex t = 0; t < m_elasticity.tet_count(); ++t) {
-    for (int i = 0; i < 4; ++i) {
-      for (int j = 0; j < 4; ++j) {
-        const Index ri = m_dof[tets(i, t)], cj = m_dof[tets(j, t)];
-        for (int c = 0; c < 3; ++c) {
-          m_blocks[t][static_cast<std::size_t>(3 * (4 * i + j) + c)] =
-              (ri == kInvalidIndex || cj == kInvalidIndex) ? nullptr : locate(ri, cj + c);
-        }
+  std::vector<Term> terms;
+  terms.reserve(tet_count * 16 + free_count);
+  for (Index b = 0; b < free_count; ++b) terms.push_back({b, b, {kInvalidIndex, 0, 0}});  // every diagonal block
+  for (TetIndex t = 0; t < tet_count; ++t) {
+    for (int j = 0; j < 4; ++j) {
+      const Index column = m_dof[tets(j, t)];
+      if (column == kInvalidIndex) continue;
+      for (int i = 0; i < 4; ++i) {
+        const Index row = m_dof[tets(i, t)];
+        if (row == kInvalidIndex) continue;
+        terms.push_back({column / 3, row / 3, {t, static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(j)}});
       }
     }
   }
-  m_diagonal.resize(rows);
-  for (Index r = 0; r < rows; ++r) m_diagonal[r] = locate(r, r);
-  m_analyzed = false;
+  std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) {
+    if (a.column != b.column) return a.column < b.column;
+    if (a.row != b.row) return a.row < b.row;
+    return a.term.tet + 1 < b.term.tet + 1;  // the diagonal marker (kInvalidIndex) first
+  });
+
+  // Blocks and the compressed column storage: column 3c + k lists, per block row r,
+  // rows 3r, 3r + 1, 3r + 2, so a block's three columns have the same layout.
+  m_block_column_start.assign(free_count + 1, 0);
+  m_block_term_start.clear();
+  m_block_terms.clear();
+  m_block_diagonal.clear();
+  std::vector<Index> block_rows;
+  for (std::size_t k = 0; k < terms.size(); ++k) {
+    const bool new_block = k == 0 || terms[k].column != terms[k - 1].column || terms[k].row != terms[k - 1].row;
+    if (new_block) {
+      m_block_term_start.push_back(m_block_terms.size());
+      m_block_diagonal.push_back(terms[k].row == terms[k].column ? 1 : 0);
+      block_rows.push_back(terms[k].row);
+      ++m_block_column_start[terms[k].column + 1];
+    }
+    if (terms[k].term.tet != kInvalidIndex) m_block_terms.push_back(terms[k].term);
+  }
+  m_block_term_start.push_back(m_block_terms.size());
+  for (Index c = 0; c < free_count; ++c) m_block_column_start[c + 1] += m_block_column_start[c];
+
+  const Index rows = 3 * free_count;
+  m_matrix = Eigen::SparseMatrix<double>(rows, rows);
+  m_matrix.resizeNonZeros(9 * static_cast<Index>(block_rows.size()));
+  int* outer = m_matrix.outerIndexPtr();
+  int* inner = m_matrix.innerIndexPtr();
+  m_block_value.resize(block_rows.size());
+  Index value = 0;
+  for (Index c = 0; c < free_count; ++c) {
+    const Index first = m_block_column_start[c], last = m_block_column_start[c + 1];
+    for (int k = 0; k < 3; ++k) {
+      outer[3 * c + k] = static_cast<int>(value);
+      for (Index b = first; b < last; ++b) {
+        if (k == 0) m_block_value[b] = value;
+        for (int r = 0; r < 3; ++r) inner[value++] = static_cast<int>(3 * block_rows[b] + r);
+      }
+    }
+  }
+  outer[rows] = static_cast<int>(value);
+  std::fill(m_matrix.valuePtr(), m_matrix.valuePtr() + value, 0.0);
+
+  // The right-hand side's gather: each free node's (tet, corner) slots in tet order.
+  m_incidence_start.assign(free_count + 1, 0);
+  for (TetIndex t = 0; t < tet_count; ++t) {
+    for (int i = 0; i < 4; ++i) {
+      if (m_dof[tets(i, t)] != kInvalidIndex) ++m_incidence_start[m_dof[tets(i, t)] / 3 + 1];
+    }
+  }
+  for (Index c = 0; c < free_count; ++c) m_incidence_start[c + 1] += m_incidence_start[c];
+  m_incidence.resize(m_incidence_start[free_count]);
+  std::vector<Index> fill(m_incidence_start.begin(), m_incidence_start.end() - 1);
+  for (TetIndex t = 0; t < tet_count; ++t) {
+    for (int i = 0; i < 4; ++i) {
+      if (m_dof[tets(i, t)] != kInvalidIndex) m_incidence[fill[m_dof[tets(i, t)] / 3]++] = {t, i};
+    }
+  }
+  m_cholesky.reset();
   m_pattern_dirty = false;
 }
 
@@ -188,74 +230,122 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
   const double alpha = m_material.rayleigh_mass, beta = m_material.rayleigh_stiffness;
   // A = M − h D − h² K with D = −αM + βK:  A = (1 + hα) M − (hβ + h²) K.
   // b = h (f + β K v + h K v) = h (f + (β + h) K v), f = elastic + gravity − α M v.
-  const auto rows = static_cast<Eigen::Index>(m_matrix.rows());
-  std::fill(m_matrix.valuePtr(), m_matrix.valuePtr() + m_matrix.nonZeros(), 0.0);
-  Eigen::VectorXd b = Eigen::VectorXd::Zero(rows);
-  const Matrix4Xu& tets = m_elasticity.tets();
   const double k_scale = h * beta + h * h;
-  for (TetIndex t = 0; t < m_elasticity.tet_count(); ++t) {
-    const Mat12& K = m_elements.stiffness[t];
-    Eigen::Matrix<double, 12, 1> v;
-    for (int j = 0; j < 4; ++j) v.segment<3>(3 * j) = velocities.col(tets(j, t));
-    const Eigen::Matrix<double, 12, 1> Kv = K * v;
-    for (int i = 0; i < 4; ++i) {
-      const Index ri = m_dof[tets(i, t)];
-      if (ri == kInvalidIndex) continue;
-      b.segment<3>(ri) += h * ((beta + h) * Kv.segment<3>(3 * i) + m_elements.forces[t].col(i));
-      for (int j = 0; j < 4; ++j) {
-        for (int c = 0; c < 3; ++c) {
-          // Each block column holds the block's 3 rows contiguously (the pattern has
-          // whole 3×3 blocks, and rows are sorted within a column).
-          double* column = m_blocks[t][static_cast<std::size_t>(3 * (4 * i + j) + c)];
-          if (column == nullptr) break;
-          for (int r = 0; r < 3; ++r) column[r] -= k_scale * K(3 * i + r, 3 * j + c);
+  const double m_scale = 1.0 + h * alpha;
+  const Matrix4Xu& tets = m_elasticity.tets();
+  const std::size_t tet_count = m_elasticity.tet_count();
+  const auto free_count = static_cast<Index>(m_free_nodes.size());
+  const auto rows = static_cast<Eigen::Index>(3 * free_count);
+
+  // Per tet f + (β + h) K v; then per free node the sum over its slots, in tet order.
+  m_tet_rhs.resize(tet_count);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tet_count, 512), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t t = r.begin(); t != r.end(); ++t) {
+      Mat34 v;
+      for (int j = 0; j < 4; ++j) v.col(j) = velocities.col(tets(j, t));
+      m_tet_rhs[t] = m_elements.forces[t] +
+                     (beta + h) * m_elasticity.stiffness_times(static_cast<TetIndex>(t), m_elements, v);
+    }
+  });
+  Eigen::VectorXd b(rows);
+  double* values = m_matrix.valuePtr();
+  const bool warped = m_elements.model == StiffnessModel::Warped;
+  tbb::parallel_for(tbb::blocked_range<Index>(0, free_count, 64), [&](const tbb::blocked_range<Index>& range) {
+    for (Index c = range.begin(); c != range.end(); ++c) {
+      const NodeIndex n = m_free_nodes[c];
+      Vec3 sum = h * m_mass[n] * (s.gravity - alpha * velocities.col(n));
+      for (Index k = m_incidence_start[c]; k < m_incidence_start[c + 1]; ++k) {
+        const auto& [t, corner] = m_incidence[k];
+        sum += h * m_tet_rhs[t].col(corner);
+      }
+      b.segment<3>(3 * c) = sum;
+      // This node's block column: every block is one task's, so no two threads write
+      // the same value.
+      const Index column_length = 3 * (m_block_column_start[c + 1] - m_block_column_start[c]);
+      for (Index block = m_block_column_start[c]; block < m_block_column_start[c + 1]; ++block) {
+        Mat3 K = Mat3::Zero();
+        for (Index k = m_block_term_start[block]; k < m_block_term_start[block + 1]; ++k) {
+          const BlockTerm& term = m_block_terms[k];
+          K += warped ? m_elasticity.warped_block(term.tet, m_elements.rotated_gradients[term.tet], term.i, term.j)
+                      : Mat3(m_elements.stiffness[term.tet].block<3, 3>(3 * term.i, 3 * term.j));
+        }
+        Mat3 A = -k_scale * K;
+        if (m_block_diagonal[block]) A.diagonal().array() += m_scale * m_mass[n];
+        double* out = values + m_block_value[block];
+        for (int col = 0; col < 3; ++col) {
+          for (int row = 0; row < 3; ++row) out[col * column_length + row] = A(row, col);
         }
       }
     }
-  }
-  for (Index n = 0; n < node_count(); ++n) {
-    const Index r = m_dof[n];
-    if (r == kInvalidIndex) continue;
-    b.segment<3>(r) += h * m_mass[n] * (s.gravity - alpha * velocities.col(n));
-    for (int a = 0; a < 3; ++a) *m_diagonal[r + a] += (1.0 + h * alpha) * m_mass[n];
-  }
+  });
 
   m_phase_times.assembly = seconds_since(phase_start);
   phase_start = Clock::now();
-  Eigen::VectorXd dv;
+  Eigen::VectorXd dv(rows);
   SolveStatus status = SolveStatus::Converged;
+  const auto refactor = [&]() {
+    if (!m_cholesky.analyzed()) m_cholesky.analyze(m_matrix);
+    ++m_factorizations;
+    m_factored_k_scale = k_scale;
+    m_factored_m_scale = m_scale;
+    m_factored_rotations = m_elements.rotations;
+    return m_cholesky.factorize(m_matrix);
+  };
   if (s.solver == LinearSolver::Direct) {
-    if (!m_analyzed) {
-      m_direct.analyzePattern(m_matrix);
-      m_analyzed = true;
-    }
-    m_direct.factorize(m_matrix);
-    if (m_direct.info() != Eigen::Success) return SolveStatus::NotPositiveDefinite;
-    dv = m_direct.solve(b);
+    if (!refactor()) return SolveStatus::NotPositiveDefinite;
+    m_cholesky.solve(b, dv);
     m_iterations = 1;
   } else {
-    Eigen::VectorXd guess(rows);
-    for (Index n = 0; n < node_count(); ++n) {
-      if (m_dof[n] != kInvalidIndex) guess.segment<3>(m_dof[n]) = m_last_dv.col(n);
+    for (Index c = 0; c < free_count; ++c) dv.segment<3>(3 * c) = m_last_dv.col(m_free_nodes[c]);
+    ApplyPreconditioner precondition;
+    Eigen::VectorXd inverse_diagonal;
+    if (s.preconditioner == Preconditioner::LaggedCholesky) {
+      const bool stale = !m_cholesky.factorized() || m_iterations > s.refactor_iterations ||
+                         k_scale != m_factored_k_scale || m_scale != m_factored_m_scale;
+      if (stale && !refactor()) return SolveStatus::NotPositiveDefinite;
+      update_node_rotations();
+      precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+        // z = R A_f⁻¹ Rᵀ r.
+        Eigen::VectorXd rotated(r.size());
+        for (Index c = 0; c < free_count; ++c) {
+          rotated.segment<3>(3 * c) = m_node_rotation[c].transpose() * r.segment<3>(3 * c);
+        }
+        m_cholesky.solve(rotated, z);
+        for (Index c = 0; c < free_count; ++c) z.segment<3>(3 * c) = m_node_rotation[c] * z.segment<3>(3 * c).eval();
+      };
+    } else {
+      inverse_diagonal = m_matrix.diagonal().cwiseInverse();
+      precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { z = inverse_diagonal.cwiseProduct(r); };
     }
-    Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper> cg;
-    cg.setTolerance(s.tolerance);
-    cg.setMaxIterations(s.max_iterations);
-    cg.compute(m_matrix);
-    dv = cg.solveWithGuess(b, guess);
-    m_iterations = static_cast<int>(cg.iterations());
-    if (cg.info() == Eigen::NoConvergence) status = SolveStatus::MaxIterations;
+    const ConjugateGradientResult cg =
+        conjugate_gradient(m_matrix, b, dv, precondition, s.tolerance, s.max_iterations);
+    m_iterations = cg.iterations;
+    if (!cg.converged) status = SolveStatus::MaxIterations;
   }
   m_phase_times.solve = seconds_since(phase_start);
   if (!dv.allFinite()) return SolveStatus::NonFinite;
-  for (Index n = 0; n < node_count(); ++n) {
-    const Index r = m_dof[n];
-    if (r == kInvalidIndex) continue;
-    m_last_dv.col(n) = dv.segment<3>(r);
-    velocities.col(n) += dv.segment<3>(r);
+  for (Index c = 0; c < free_count; ++c) {
+    const NodeIndex n = m_free_nodes[c];
+    m_last_dv.col(n) = dv.segment<3>(3 * c);
+    velocities.col(n) += dv.segment<3>(3 * c);
     positions.col(n) += h * velocities.col(n);
   }
   return status;
+}
+
+void ImplicitIntegrator::update_node_rotations() {
+  const auto free_count = static_cast<Index>(m_free_nodes.size());
+  m_node_rotation.resize(free_count);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, free_count, 256), [&](const tbb::blocked_range<Index>& range) {
+    for (Index c = range.begin(); c != range.end(); ++c) {
+      Mat3 sum = Mat3::Zero();
+      for (Index k = m_incidence_start[c]; k < m_incidence_start[c + 1]; ++k) {
+        const TetIndex t = m_incidence[k].first;
+        sum += m_elements.rotations[t] * m_factored_rotations[t].transpose();
+      }
+      m_node_rotation[c] = polar_rotation(sum);
+    }
+  });
 }
 
 double ImplicitIntegrator::kinetic_energy() const {

@@ -13,17 +13,30 @@
 /// valid across splits.
 
 #include <Eigen/Sparse>
-#include <Eigen/SparseCholesky>
 #include <array>
 #include <memory>
 #include <span>
 #include <vector>
 
 #include "player/sim/corotated_elasticity.h"
+#include "player/sim/sparse_cholesky.h"
 
 namespace fissure::sim {
 
 enum class LinearSolver { Direct, ConjugateGradient };
+
+/// What conjugate gradients are preconditioned with.
+///  - Jacobi: the diagonal. Cheap per iteration, but the iteration count grows with
+///    h²E/(ρL²): hundreds on a fine cage.
+///  - LaggedCholesky: the exact Cholesky factor of an earlier step's matrix A_f. Between
+///    steps the (warped) matrix changes only through the tet rotations, and a rotation
+///    that is shared by a neighbourhood conjugates its blocks: A ≈ R A_f Rᵀ with R
+///    block-diagonal, each node's rotation since the factorization (the polar part of
+///    the sum of its tets' rotation changes). So P = R A_f Rᵀ stays a close
+///    preconditioner through large rigid-like motion, and is refactored only when an
+///    iteration count exceeds `refactor_iterations`, the pattern changes (fracture) or
+///    dt changes.
+enum class Preconditioner { Jacobi, LaggedCholesky };
 
 enum class SolveStatus { Converged, MaxIterations, NotPositiveDefinite, NonFinite };
 
@@ -36,6 +49,8 @@ struct StepSettings {
   StiffnessModel stiffness = StiffnessModel::Warped;
   double tolerance = 1e-8;             ///< relative residual for conjugate gradients
   int max_iterations = 1000;           ///< conjugate-gradient cap
+  Preconditioner preconditioner = Preconditioner::LaggedCholesky;
+  int refactor_iterations = 8;         ///< LaggedCholesky: refactor after a solve that took more
 };
 
 /// How tet mass is spread to nodes (thesis III.D.2). Without it, each node gets a
@@ -92,12 +107,14 @@ class ImplicitIntegrator {
   SolveStatus solve(const StepSettings& settings);
 
   [[nodiscard]] int last_iterations() const { return m_iterations; }
+  /// Numeric Cholesky factorizations so far (direct solves, and LaggedCholesky refreshes).
+  [[nodiscard]] int factorizations() const { return m_factorizations; }
 
   /// Wall-clock seconds of the last step's phases.
   struct PhaseTimes {
     double forces = 0;    ///< rotations, elastic forces and element stiffness (evaluate)
     double assembly = 0;  ///< the system's values, gravity and damping
-    double solve = 0;     ///< factorization and solve, or CG
+    double solve = 0;     ///< factorization and solve, or CG (with any refactorization)
   };
   [[nodiscard]] const PhaseTimes& last_phase_times() const { return m_phase_times; }
 
@@ -109,6 +126,8 @@ class ImplicitIntegrator {
 
  private:
   void build_pattern();
+  /// m_node_rotation from the tets' rotations now and at the last factorization.
+  void update_node_rotations();
   void lump_masses();
 
   CorotatedElasticity m_elasticity;
@@ -119,15 +138,36 @@ class ImplicitIntegrator {
   Eigen::VectorXd m_mass;                    ///< #N lumped masses [kg]
   std::vector<std::uint8_t> m_pinned;
   std::vector<Index> m_dof;                  ///< node → first row in the system, kInvalidIndex if pinned
+  std::vector<NodeIndex> m_free_nodes;       ///< free node of each 3-row block, in row order
+  /// The system, both triangles, in whole 3×3 blocks: each block column (3 columns of
+  /// one free node) lists the same rows. Steps refill its values in place.
   Eigen::SparseMatrix<double> m_matrix;
-  /// Per tet, per (i, j) node pair and block column c: where that column's 3 rows start
-  /// in the compressed storage (null when a node is pinned). Steps write through these.
-  std::vector<std::array<double*, 48>> m_blocks;
-  std::vector<double*> m_diagonal;           ///< per free row: its diagonal entry
+  /// One (tet, corner i, corner j) term of a 3×3 block.
+  struct BlockTerm {
+    TetIndex tet;
+    std::uint8_t i, j;
+  };
+  /// Per block (sorted by block column, then row): where its (0, 0) value is, whether it
+  /// is a diagonal block, and its terms in tet order: a gather, so the blocks are filled
+  /// in parallel and the sums do not depend on the thread count.
+  std::vector<Index> m_block_value;
+  std::vector<std::uint8_t> m_block_diagonal;
+  std::vector<Index> m_block_column_start;   ///< per free node + 1: its first block
+  std::vector<Index> m_block_term_start;     ///< per block + 1
+  std::vector<BlockTerm> m_block_terms;
+  /// Per free node + 1, and the (tet, corner) slots holding it, in tet order (the
+  /// right-hand side's gather).
+  std::vector<Index> m_incidence_start;
+  std::vector<std::pair<TetIndex, int>> m_incidence;
+  std::vector<Mat34> m_tet_rhs;              ///< per tet: f + (β + h) K v at its corners
   bool m_pattern_dirty = true;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> m_direct;
+  SparseCholesky m_cholesky;
+  double m_factored_k_scale = 0.0;           ///< (hβ + h²) and (1 + hα) the factor was made with,
+  double m_factored_m_scale = 0.0;           ///< so a dt change refactors
+  int m_factorizations = 0;
+  std::vector<Mat3> m_factored_rotations;    ///< per tet: its rotation when A_f was factored
+  std::vector<Mat3> m_node_rotation;         ///< per free node: its rotation since then
   Matrix3Xd m_last_dv;                       ///< per node: last Δv, the warm start for conjugate gradients
-  bool m_analyzed = false;
   int m_iterations = 0;
   ElementBuffers m_elements;
   PhaseTimes m_phase_times;

@@ -1,7 +1,7 @@
-// Physics step cost: ms per implicit step vs tet count, direct vs conjugate-gradient
-// solver. Prints a Markdown table for BENCHMARKS.md.
+// Physics step cost: ms per implicit step vs tet count, for the direct solver and
+// conjugate gradients with either preconditioner. Prints a Markdown table for BENCHMARKS.md.
 //
-//   fissure_sim_bench [--steps N] [--threads N] [--stiffness warped|exact] [--large]
+//   fissure_sim_bench [--steps N] [--threads N] [--stiffness warped|exact] [--large] [--trace]
 // --large adds an 85k-tet beam (conjugate gradients only: the direct factorization
 // alone takes seconds there).
 #include <tbb/global_control.h>
@@ -29,6 +29,7 @@ struct Case {
 int main(int argc, char** argv) {
   int steps = 20;
   bool large = false;
+  bool trace = false;  // one line per step: iterations and solve time
   sim::StiffnessModel stiffness = sim::StiffnessModel::Warped;
   std::unique_ptr<tbb::global_control> threads;
   for (int i = 1; i < argc; ++i) {
@@ -40,10 +41,12 @@ int main(int argc, char** argv) {
                                                       static_cast<std::size_t>(std::stoi(argv[++i])));
     } else if (arg == "--stiffness" && i + 1 < argc) {
       stiffness = std::string(argv[++i]) == "exact" ? sim::StiffnessModel::Exact : sim::StiffnessModel::Warped;
+    } else if (arg == "--trace") {
+      trace = true;
     } else if (arg == "--large") {
       large = true;
     } else {
-      std::fprintf(stderr, "usage: fissure_sim_bench [--steps N] [--threads N] [--stiffness warped|exact] [--large]\n");
+      std::fprintf(stderr, "usage: fissure_sim_bench [--steps N] [--threads N] [--stiffness warped|exact] [--large] [--trace]\n");
       return 1;
     }
   }
@@ -57,13 +60,21 @@ int main(int argc, char** argv) {
   cases.push_back({"bunny-5k-cage-987", formats::read_cage(std::string(FISSURE_BENCH_DATA_DIR) + "/cages/bunny-5k-cage-987.node").mesh});
   cases.push_back({"bunny-5k-cage-10024", formats::read_cage(std::string(FISSURE_BENCH_DATA_DIR) + "/cages/bunny-5k-cage-10024.node").mesh});
   if (large) cases.push_back({"beam 4×1×1 m, 72×14×14", testing::grid_cage(Vec3::Zero(), Vec3(4, 1, 1), 72, 14, 14)});
-  std::printf("| cage | nodes | tets | direct ms/step | direct: forces / assembly / solve ms | CG ms/step (iterations) | CG: forces / assembly / solve ms | CG / direct |\n|---|---|---|---|---|---|---|---|\n");
+  struct SolverCase {
+    const char* name;
+    sim::LinearSolver solver;
+    sim::Preconditioner preconditioner;
+  };
+  const SolverCase solvers[] = {
+      {"direct (CHOLMOD)", sim::LinearSolver::Direct, sim::Preconditioner::Jacobi},
+      {"CG, Jacobi", sim::LinearSolver::ConjugateGradient, sim::Preconditioner::Jacobi},
+      {"CG, lagged Cholesky", sim::LinearSolver::ConjugateGradient, sim::Preconditioner::LaggedCholesky},
+  };
+  std::printf("| cage | nodes | tets | solver | ms/step | forces / assembly / solve ms | CG iterations per step | factorizations | vs CG Jacobi |\n|---|---|---|---|---|---|---|---|---|\n");
   for (const Case& c : cases) {
-    double ms[2] = {0, 0};
-    sim::ImplicitIntegrator::PhaseTimes phases[2];
-    int iterations = 0;
-    const bool skip_direct = c.cage.tet_count() > 50000;
-    for (int solver = skip_direct ? 1 : 0; solver < 2; ++solver) {
+    double jacobi_ms = 0.0;
+    for (const SolverCase& solver : solvers) {
+      if (c.cage.tet_count() > 50000 && solver.solver == sim::LinearSolver::Direct) continue;
       sim::ImplicitIntegrator body(c.cage.rest_positions, c.cage.tets,
                                    sim::Material{.density = 1000, .youngs_modulus = 1e6, .poisson_ratio = 0.3});
       // Clamp the nodes at the lowest x, as the cantilever of the issue.
@@ -72,27 +83,37 @@ int main(int argc, char** argv) {
         if (c.cage.rest_positions(0, n) <= x_min + 1e-9) body.pin(n);
       }
       sim::StepSettings settings;
-      settings.solver = solver == 0 ? sim::LinearSolver::Direct : sim::LinearSolver::ConjugateGradient;
+      settings.solver = solver.solver;
+      settings.preconditioner = solver.preconditioner;
       settings.tolerance = 1e-6;
       settings.stiffness = stiffness;
-      body.step(settings);  // first step: symbolic analysis, excluded
-      const auto start = std::chrono::steady_clock::now();
+      body.step(settings);  // first step: pattern, symbolic analysis, first factor: excluded
+      const int factorizations_before = body.factorizations();
+      sim::ImplicitIntegrator::PhaseTimes phases;
       int total_iterations = 0;
+      const auto start = std::chrono::steady_clock::now();
       for (int i = 0; i < steps; ++i) {
         body.step(settings);
+        if (trace) std::printf("  step %d: %d iterations, solve %.2f ms\n", i, body.last_iterations(), 1e3 * body.last_phase_times().solve);
         total_iterations += body.last_iterations();
-        phases[solver].forces += body.last_phase_times().forces / steps;
-        phases[solver].assembly += body.last_phase_times().assembly / steps;
-        phases[solver].solve += body.last_phase_times().solve / steps;
+        phases.forces += body.last_phase_times().forces / steps;
+        phases.assembly += body.last_phase_times().assembly / steps;
+        phases.solve += body.last_phase_times().solve / steps;
       }
-      ms[solver] = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / steps;
-      if (solver == 1) iterations = total_iterations / steps;
+      const double ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / steps;
+      if (solver.preconditioner == sim::Preconditioner::Jacobi && solver.solver != sim::LinearSolver::Direct) {
+        jacobi_ms = ms;
+      }
+      std::printf("| %s | %zu | %zu | %s | %.2f | %.2f / %.2f / %.2f | %s | %d | %s |\n", c.name.c_str(),
+                  c.cage.node_count(), c.cage.tet_count(), solver.name, ms, 1e3 * phases.forces,
+                  1e3 * phases.assembly, 1e3 * phases.solve,
+                  solver.solver == sim::LinearSolver::Direct
+                      ? "–"
+                      : std::to_string(static_cast<double>(total_iterations) / steps).substr(0, 5).c_str(),
+                  body.factorizations() - factorizations_before,
+                  jacobi_ms > 0 ? (std::to_string(ms / jacobi_ms).substr(0, 4) + "×").c_str() : "–");
+      std::fflush(stdout);
     }
-    std::printf("| %s | %zu | %zu | %.2f | %.2f / %.2f / %.2f | %.2f (%d) | %.2f / %.2f / %.2f | %.2f× |\n", c.name.c_str(),
-                c.cage.node_count(), c.cage.tet_count(), ms[0], 1e3 * phases[0].forces, 1e3 * phases[0].assembly,
-                1e3 * phases[0].solve, ms[1], iterations, 1e3 * phases[1].forces, 1e3 * phases[1].assembly,
-                1e3 * phases[1].solve, skip_direct ? 0.0 : ms[1] / ms[0]);
-    std::fflush(stdout);
   }
   return 0;
 }

@@ -1,0 +1,28 @@
+#pragma once
+/// Preconditioned conjugate gradients for the implicit step's symmetric positive-definite
+/// system, with a parallel, deterministic product (each row is one task's dot product,
+/// so the result does not depend on the thread count).
+
+#include <Eigen/Sparse>
+#include <functional>
+
+namespace fissure::sim {
+
+/// y = A x for a symmetric A stored with both triangles (column j is row j).
+void symmetric_product(const Eigen::SparseMatrix<double>& A, const Eigen::VectorXd& x, Eigen::VectorXd& y);
+
+struct ConjugateGradientResult {
+  int iterations = 0;
+  bool converged = false;
+};
+
+/// z = P⁻¹ r.
+using ApplyPreconditioner = std::function<void(const Eigen::VectorXd& r, Eigen::VectorXd& z)>;
+
+/// Solves A x = b from the initial guess in x until ‖b − A x‖ ≤ tolerance ‖b‖ or
+/// max_iterations. b = 0 gives x = 0.
+ConjugateGradientResult conjugate_gradient(const Eigen::SparseMatrix<double>& A, const Eigen::VectorXd& b,
+                                           Eigen::VectorXd& x, const ApplyPreconditioner& precondition,
+                                           double tolerance, int max_iterations);
+
+}  // namespace fissure::sim

@@ -1,0 +1,153 @@
+// The step's numerical kernels: the fast polar rotation, the closed-form warped
+// stiffness product, conjugate gradients and the sparse Cholesky factor.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "player/sim/conjugate_gradient.h"
+#include "player/sim/corotated_elasticity.h"
+#include "player/sim/sparse_cholesky.h"
+#include "tests/support/procedural.h"
+
+namespace fissure::sim {
+namespace {
+
+Mat3 random_matrix(std::mt19937& rng, double spread) {
+  std::uniform_real_distribution<double> u(-spread, spread);
+  Mat3 m;
+  for (int k = 0; k < 9; ++k) m.data()[k] = u(rng);
+  return m;
+}
+
+TEST(PolarRotation, NewtonIterationMatchesTheSignedSvd) {
+  std::mt19937 rng(7);
+  int newton_cases = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    // Rotations times stretches from mild to strong, some nearly flat.
+    const Mat3 rotation = Eigen::Quaterniond::UnitRandom().toRotationMatrix();
+    const Mat3 F = rotation * (Mat3::Identity() + random_matrix(rng, trial % 2 == 0 ? 0.3 : 0.9));
+    const SignedSvd svd = signed_svd(F);
+    const Mat3 expected = svd.U * svd.V.transpose();
+    const Mat3 Q = polar_rotation(F);
+    EXPECT_LT((Q - expected).norm(), 1e-10) << "F =\n" << F;
+    EXPECT_NEAR(Q.determinant(), 1.0, 1e-12);
+    if (F.determinant() > 0.0) ++newton_cases;
+  }
+  EXPECT_GT(newton_cases, 1000);  // the fast path was exercised
+}
+
+TEST(PolarRotation, InvertedFlatAndCollapsedTetsGetProperRotations) {
+  const Mat3 inverted = Vec3(1.0, 1.0, -0.5).asDiagonal();
+  const Mat3 flat = Vec3(1.0, 2.0, 0.0).asDiagonal();
+  for (const Mat3& F : {inverted, flat, Mat3(Mat3::Zero())}) {
+    const Mat3 Q = polar_rotation(F);
+    EXPECT_NEAR(Q.determinant(), 1.0, 1e-12);
+    EXPECT_LT((Q * Q.transpose() - Mat3::Identity()).norm(), 1e-12);
+  }
+  EXPECT_LT((polar_rotation(inverted) - Mat3::Identity()).norm(), 1e-12);  // the reflection goes onto σ₃
+}
+
+TEST(StiffnessProduct, MatchesTheAssembledTetStiffnessInBothModels) {
+  const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(1.0, 1.0, 1.0), 1, 1, 1);
+  const CorotatedElasticity elasticity(cage.rest_positions, cage.tets, Material{.youngs_modulus = 1e6});
+  std::mt19937 rng(3);
+  Matrix3Xd x = cage.rest_positions;
+  const Mat3 turn = Eigen::AngleAxisd(0.7, Vec3::UnitZ()).toRotationMatrix();
+  for (Eigen::Index n = 0; n < x.cols(); ++n) x.col(n) = turn * x.col(n) + 0.1 * random_matrix(rng, 1.0).col(0);
+  for (const StiffnessModel model : {StiffnessModel::Warped, StiffnessModel::Exact}) {
+    ElementBuffers buffers;
+    elasticity.evaluate(x, model, false, buffers);
+    for (TetIndex t = 0; t < elasticity.tet_count(); ++t) {
+      const Mat12 K = model == StiffnessModel::Warped ? elasticity.stiffness(t, buffers.rotations[t])
+                                                      : elasticity.exact_stiffness(t, x, true);
+      const Mat34 u = random_matrix(rng, 1.0) * Mat34::Random();
+      Eigen::Matrix<double, 12, 1> stacked;
+      for (int j = 0; j < 4; ++j) stacked.segment<3>(3 * j) = u.col(j);
+      const Eigen::Matrix<double, 12, 1> expected = K * stacked;
+      const Mat34 product = elasticity.stiffness_times(t, buffers, u);
+      EXPECT_LT((Eigen::Map<const Eigen::Matrix<double, 12, 1>>(product.data()) - expected).norm(),
+                1e-12 * expected.norm())
+          << "tet " << t;
+    }
+  }
+}
+
+/// A random sparse symmetric positive-definite matrix (a graph Laplacian plus a diagonal).
+Eigen::SparseMatrix<double> random_spd(int n, std::mt19937& rng) {
+  std::uniform_int_distribution<int> pick(0, n - 1);
+  std::uniform_real_distribution<double> weight(0.1, 10.0);
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int i = 0; i < n; ++i) entries.emplace_back(i, i, 1e-3);
+  for (int e = 0; e < 4 * n; ++e) {
+    const int i = pick(rng), j = pick(rng);
+    if (i == j) continue;
+    const double w = weight(rng);
+    entries.emplace_back(i, i, w);
+    entries.emplace_back(j, j, w);
+    entries.emplace_back(i, j, -w);
+    entries.emplace_back(j, i, -w);
+  }
+  Eigen::SparseMatrix<double> A(n, n);
+  A.setFromTriplets(entries.begin(), entries.end());
+  return A;
+}
+
+TEST(ConjugateGradient, SolvesASymmetricPositiveDefiniteSystemToTheTolerance) {
+  std::mt19937 rng(11);
+  const Eigen::SparseMatrix<double> A = random_spd(300, rng);
+  const Eigen::VectorXd b = Eigen::VectorXd::Random(300);
+  Eigen::VectorXd product;
+  symmetric_product(A, b, product);
+  EXPECT_LT((product - A * b).norm(), 1e-12 * (A * b).norm());
+  const Eigen::VectorXd inverse_diagonal = A.diagonal().cwiseInverse();
+  for (const double tolerance : {1e-4, 1e-10}) {
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(300);
+    const ConjugateGradientResult result = conjugate_gradient(
+        A, b, x, [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { z = inverse_diagonal.cwiseProduct(r); },
+        tolerance, 10000);
+    EXPECT_TRUE(result.converged);
+    EXPECT_LE((b - A * x).norm(), tolerance * b.norm());
+  }
+  // An exact preconditioner converges in one iteration.
+  SparseCholesky cholesky;
+  cholesky.analyze(A);
+  ASSERT_TRUE(cholesky.factorize(A));
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(300);
+  const ConjugateGradientResult exact = conjugate_gradient(
+      A, b, x, [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { cholesky.solve(r, z); }, 1e-10, 100);
+  EXPECT_TRUE(exact.converged);
+  EXPECT_EQ(exact.iterations, 1);
+}
+
+TEST(ConjugateGradient, ZeroRightHandSideGivesZeroAndAnIndefiniteMatrixStops) {
+  std::mt19937 rng(5);
+  const Eigen::SparseMatrix<double> A = random_spd(50, rng);
+  const auto identity = [](const Eigen::VectorXd& r, Eigen::VectorXd& z) { z = r; };
+  Eigen::VectorXd x = Eigen::VectorXd::Ones(50);
+  EXPECT_TRUE(conjugate_gradient(A, Eigen::VectorXd::Zero(50), x, identity, 1e-8, 100).converged);
+  EXPECT_EQ(x, Eigen::VectorXd::Zero(50));
+  const Eigen::SparseMatrix<double> negative = -A;
+  x.setZero();
+  const ConjugateGradientResult result =
+      conjugate_gradient(negative, Eigen::VectorXd::Ones(50), x, identity, 1e-8, 100);
+  EXPECT_FALSE(result.converged);
+  EXPECT_LT(result.iterations, 100);  // stopped at the first non-positive curvature
+}
+
+TEST(SparseCholesky, RefusesAnIndefiniteMatrixAndKeepsItsAnalysis) {
+  std::mt19937 rng(9);
+  const Eigen::SparseMatrix<double> A = random_spd(80, rng);
+  SparseCholesky cholesky;
+  cholesky.analyze(A);
+  const Eigen::SparseMatrix<double> negative = -A;
+  EXPECT_FALSE(cholesky.factorize(negative));
+  EXPECT_FALSE(cholesky.factorized());
+  ASSERT_TRUE(cholesky.factorize(A));  // same pattern: the analysis is reused
+  const Eigen::VectorXd b = Eigen::VectorXd::Random(80);
+  Eigen::VectorXd x;
+  cholesky.solve(b, x);
+  EXPECT_LT((A * x - b).norm(), 1e-10 * b.norm());
+}
+
+}  // namespace
+}  // namespace fissure::sim
