@@ -97,6 +97,7 @@ struct SceneProjectile {
 };
 
 enum class SceneSolver { Direct, ConjugateGradient };
+enum class ScenePreconditioner { Cholesky, Jacobi };
 enum class SceneStiffness { Warped, Exact };
 enum class SceneCollisionMode { Spheres, Vertices };
 
@@ -106,6 +107,8 @@ struct SceneSolverSettings {
   SceneSolver solver = SceneSolver::ConjugateGradient;
   double tolerance = 1e-6;   ///< [-] relative residual of the linear solve, in (0, 1)
   int max_iterations = 500;  ///< CG iterations per solve, ≥ 1
+  ScenePreconditioner preconditioner = ScenePreconditioner::Cholesky;  ///< for "cg"
+  int refactor_iterations = 8;  ///< "cholesky": refactor after a solve that took more iterations, ≥ 1
   SceneStiffness stiffness = SceneStiffness::Warped;  ///< stiffness-warped or exact corotated tangent
   int threads = 0;               ///< 0 = all cores
   int max_splits_per_step = 64;  ///< fracture splits per step, ≥ 0 (0 = none)

@@ -35,6 +35,7 @@ struct Summary {
   Vec3 momentum_initial, momentum_final, angular_initial, angular_final;
   std::size_t splits = 0, exposed = 0, contacts = 0, swept = 0, unconverged = 0;
   long iterations = 0;
+  long factorizations = 0;
   int substeps_max = 1;
   double sphere_penetration_max = 0, vertex_penetration_max = 0;
   double sphere_penetration_final = 0, vertex_penetration_final = 0;
@@ -55,7 +56,9 @@ void write_phase(JsonWriter& json, const char* name, const PhaseStats& p, long s
 }
 
 const char* solver_name(const sim::WorldSettings& s) {
-  return s.step.solver == sim::LinearSolver::Direct ? "direct (simplicial LDLT)" : "conjugate gradients (Jacobi)";
+  if (s.step.solver == sim::LinearSolver::Direct) return "direct (CHOLMOD supernodal Cholesky)";
+  return s.step.preconditioner == sim::Preconditioner::Jacobi ? "conjugate gradients (Jacobi)"
+                                                              : "conjugate gradients (lagged Cholesky)";
 }
 
 }  // namespace
@@ -124,6 +127,7 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
     summary.swept += r.contacts.swept;
     summary.unconverged += r.unconverged ? 1 : 0;
     summary.iterations += r.solver_iterations;
+    summary.factorizations += r.factorizations;
     summary.substeps_max = std::max(summary.substeps_max, r.substeps);
     for (const auto& [body, split] : r.splits) {
       split_from[body].resize(std::max<std::size_t>(split_from[body].size(), split.added + 1), kInvalidIndex);
@@ -188,9 +192,9 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
               world.fragment_count());
   std::printf("contacts   %zu (%zu caught only by swept tests), penetration max: spheres %.3g m, render vertices %.3g m\n",
               summary.contacts, summary.swept, summary.sphere_penetration_max, summary.vertex_penetration_max);
-  std::printf("solver     %s, %.1f iterations/step, %zu steps hit the iteration cap, at most %d substeps\n",
+  std::printf("solver     %s, %.1f iterations/step, %ld factorizations, %zu steps hit the iteration cap, at most %d substeps\n",
               solver_name(world.settings()), static_cast<double>(summary.iterations) * per_step / 1e3,
-              summary.unconverged, summary.substeps_max);
+              summary.factorizations, summary.unconverged, summary.substeps_max);
 
   if (!options.report.empty()) {
     JsonWriter json;
@@ -251,6 +255,7 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
     json.key("vertex_penetration_max_m").value(summary.vertex_penetration_max);
     json.key("vertex_penetration_final_m").value(summary.vertex_penetration_final);
     json.key("solver_iterations_mean").value(static_cast<double>(summary.iterations) * per_step / 1e3);
+    json.key("factorizations").value(static_cast<std::int64_t>(summary.factorizations));
     json.key("steps_at_iteration_cap").value(static_cast<std::uint64_t>(summary.unconverged));
     json.key("substeps_max").value(summary.substeps_max);
     json.end_object();

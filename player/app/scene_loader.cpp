@@ -133,6 +133,10 @@ LoadedScene load_scene(const formats::Scene& scene) {
                                                                                      : sim::StiffnessModel::Warped;
   settings.step.tolerance = scene.solver.tolerance;
   settings.step.max_iterations = scene.solver.max_iterations;
+  settings.step.preconditioner = scene.solver.preconditioner == formats::ScenePreconditioner::Jacobi
+                                     ? sim::Preconditioner::Jacobi
+                                     : sim::Preconditioner::LaggedCholesky;
+  settings.step.refactor_iterations = scene.solver.refactor_iterations;
   settings.min_dt = scene.solver.min_dt;
   settings.fracture = scene.features.fracture;
   settings.max_splits_per_step = scene.solver.max_splits_per_step;

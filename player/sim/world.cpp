@@ -119,7 +119,9 @@ void World::advance(double dt, StepReport& report, int depth) {
   }
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
     Body& b = m_bodies[bi];
+    const int factorizations_before = b.solver->factorizations();
     const SolveStatus status = b.solver->solve(step);
+    report.factorizations += b.solver->factorizations() - factorizations_before;
     report.assembly += b.solver->last_phase_times().assembly;
     report.solve += b.solver->last_phase_times().solve;
     report.solver_iterations += b.solver->last_iterations();

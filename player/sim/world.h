@@ -47,6 +47,7 @@ struct StepReport {
   double forces = 0, assembly = 0, solve = 0, fracture = 0, collisions = 0;  ///< [s] wall clock
   int substeps = 1;                 ///< > 1 when adaptive stepping halved dt
   int solver_iterations = 0;        ///< summed over bodies and substeps
+  int factorizations = 0;           ///< numeric Cholesky factorizations, summed likewise
   bool unconverged = false;         ///< a CG solve hit the iteration cap
   std::vector<std::pair<Index, NodeSplit>> splits;      ///< (body, split)
   std::vector<std::pair<Index, TetFace>> exposed;       ///< (body, face newly on the boundary)

@@ -31,6 +31,8 @@ min_dt = 0.001
 solver = "direct"
 tolerance = 1e-4
 max_iterations = 50
+preconditioner = "jacobi"
+refactor_iterations = 3
 stiffness = "exact"
 threads = 3
 max_splits_per_step = 7
@@ -117,6 +119,8 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(scene.solver.solver, SceneSolver::Direct);
   EXPECT_EQ(scene.solver.tolerance, 1e-4);
   EXPECT_EQ(scene.solver.max_iterations, 50);
+  EXPECT_EQ(scene.solver.preconditioner, ScenePreconditioner::Jacobi);
+  EXPECT_EQ(scene.solver.refactor_iterations, 3);
   EXPECT_EQ(scene.solver.stiffness, SceneStiffness::Exact);
   EXPECT_EQ(scene.solver.threads, 3);
   EXPECT_EQ(scene.solver.max_splits_per_step, 7);
@@ -171,12 +175,12 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(bunny.pin_boxes[0].min, Vec3(-1, -1, 0));
   EXPECT_EQ(bunny.pin_boxes[0].max, Vec3(1, 1, 0.1));
   EXPECT_EQ(bunny.pin_nodes, (std::vector<Index>{3, 1, 4, 15}));
-  EXPECT_EQ(bunny.line, 43);
+  EXPECT_EQ(bunny.line, 45);
 
   const SceneObject& cube = scene.objects[1];
   EXPECT_EQ(cube.name, "cube");  // the bundle's stem when no name is given
   EXPECT_EQ(cube.bundle, std::filesystem::path("scenes/other/cube.h5"));
-  EXPECT_EQ(cube.line, 71);
+  EXPECT_EQ(cube.line, 73);
 
   ASSERT_EQ(scene.projectiles.size(), 1u);
   const SceneProjectile& p = scene.projectiles[0];
@@ -187,7 +191,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(p.launch_time, 1.5);
   EXPECT_EQ(p.restitution, 0.8);
   EXPECT_EQ(p.friction, 0.1);
-  EXPECT_EQ(p.line, 74);
+  EXPECT_EQ(p.line, 76);
 }
 
 TEST(SceneReader, DefaultsApply) {
@@ -197,6 +201,7 @@ TEST(SceneReader, DefaultsApply) {
   EXPECT_EQ(scene.solver.solver, SceneSolver::ConjugateGradient);
   EXPECT_EQ(scene.solver.tolerance, 1e-6);
   EXPECT_EQ(scene.solver.max_iterations, 500);
+  EXPECT_EQ(scene.solver.preconditioner, ScenePreconditioner::Cholesky);
   EXPECT_EQ(scene.solver.stiffness, SceneStiffness::Warped);
   EXPECT_EQ(scene.solver.threads, 0);
   EXPECT_EQ(scene.solver.max_splits_per_step, 64);
@@ -377,6 +382,7 @@ TEST(SceneReader, OutOfRangeValuesNameKeyAndLine) {
       {"[solver]\ntolerance = 1\n", "solver.tolerance = 1 is out of range", 4},
       {"[solver]\ntolerance = 0\n", "solver.tolerance = 0 is out of range", 4},
       {"[solver]\nmax_iterations = 0\n", "solver.max_iterations = 0 is out of range", 4},
+      {"[solver]\nrefactor_iterations = 0\n", "solver.refactor_iterations = 0 is out of range", 4},
       {"[solver]\nmax_iterations = 10000000000\n", "solver.max_iterations = 10000000000 is out of range", 4},
       {"[solver]\nthreads = -1\n", "solver.threads = -1 is out of range", 4},
       {"[solver]\nmax_splits_per_step = -2\n", "solver.max_splits_per_step = -2 is out of range", 4},
