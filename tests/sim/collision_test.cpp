@@ -224,7 +224,10 @@ TEST(Collision, ASphereRestingExactlyOnABoxFaceStaysOnIt) {
 // at 1 m/s — hitting the ground inelastically ends with 3× its kinetic energy. Measured
 // on the box drop in render-vertex mode: kinetic + elastic energy climbs from 0.06 J to
 // 3 J after the box has settled. Spreading the impulse by barycentric weight over node
-// mass (Δvᵢ = bᵢ J / mᵢ, the previous version) is dissipative but throws light nodes.
+// mass (Δvᵢ = bᵢ J / mᵢ, the previous version) is dissipative but throws light nodes:
+// re-measured on the bunny drop without the ball (300 steps), it passes this test but
+// raises the energy peak from 18 J to 76 J and render-vertex penetration from 0 to 22 mm.
+// The fix is to move contacts into the implicit solve.
 TEST(Collision, DISABLED_AnInelasticContactNeverAddsKineticEnergy) {
   Matrix3Xd rest(3, 4);
   rest << 0, 1, 0, 0,
