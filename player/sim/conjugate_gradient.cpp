@@ -23,6 +23,13 @@ void symmetric_product(const Eigen::SparseMatrix<double>& A, const Eigen::Vector
 ConjugateGradientResult conjugate_gradient(const Eigen::SparseMatrix<double>& A, const Eigen::VectorXd& b,
                                            Eigen::VectorXd& x, const ApplyPreconditioner& precondition,
                                            double tolerance, int max_iterations) {
+  return conjugate_gradient([&](const Eigen::VectorXd& in, Eigen::VectorXd& out) { symmetric_product(A, in, out); },
+                            b, x, precondition, tolerance, max_iterations);
+}
+
+ConjugateGradientResult conjugate_gradient(const ApplyOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& x,
+                                           const ApplyPreconditioner& precondition, double tolerance,
+                                           int max_iterations) {
   ConjugateGradientResult result;
   const double b_norm2 = b.squaredNorm();
   if (b_norm2 == 0.0) {
@@ -32,7 +39,7 @@ ConjugateGradientResult conjugate_gradient(const Eigen::SparseMatrix<double>& A,
   }
   const double threshold = tolerance * tolerance * b_norm2;
   Eigen::VectorXd r(b.size()), z(b.size()), p(b.size()), Ap(b.size());
-  symmetric_product(A, x, Ap);
+  A(x, Ap);
   r = b - Ap;
   if (r.squaredNorm() <= threshold) {
     result.converged = true;
@@ -42,7 +49,7 @@ ConjugateGradientResult conjugate_gradient(const Eigen::SparseMatrix<double>& A,
   p = z;
   double rz = r.dot(z);
   while (result.iterations < max_iterations) {
-    symmetric_product(A, p, Ap);
+    A(p, Ap);
     const double pAp = p.dot(Ap);
     if (!(pAp > 0.0)) break;  // not positive definite, or a non-finite value: the caller checks x
     const double alpha = rz / pAp;

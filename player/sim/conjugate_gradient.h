@@ -18,9 +18,15 @@ struct ConjugateGradientResult {
 
 /// z = P⁻¹ r.
 using ApplyPreconditioner = std::function<void(const Eigen::VectorXd& r, Eigen::VectorXd& z)>;
+/// y = A x, for a system that is never assembled (a matrix-free product).
+using ApplyOperator = std::function<void(const Eigen::VectorXd& x, Eigen::VectorXd& y)>;
 
 /// Solves A x = b from the initial guess in x until ‖b − A x‖ ≤ tolerance ‖b‖ or
 /// max_iterations. b = 0 gives x = 0.
+ConjugateGradientResult conjugate_gradient(const ApplyOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& x,
+                                           const ApplyPreconditioner& precondition, double tolerance,
+                                           int max_iterations);
+/// The same with an assembled A (symmetric_product).
 ConjugateGradientResult conjugate_gradient(const Eigen::SparseMatrix<double>& A, const Eigen::VectorXd& b,
                                            Eigen::VectorXd& x, const ApplyPreconditioner& precondition,
                                            double tolerance, int max_iterations);

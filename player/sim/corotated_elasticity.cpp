@@ -48,15 +48,23 @@ namespace {
 
 /// Q⁻ᵀ from Q's columns: (q₁×q₂, q₂×q₀, q₀×q₁) / det Q.
 Mat3 inverse_transpose(const Mat3& Q, double det) {
+  const double inverse_det = 1.0 / det;
   Mat3 out;
-  out.col(0) = Q.col(1).cross(Q.col(2)) / det;
-  out.col(1) = Q.col(2).cross(Q.col(0)) / det;
-  out.col(2) = Q.col(0).cross(Q.col(1)) / det;
+  out.col(0) = Q.col(1).cross(Q.col(2)) * inverse_det;
+  out.col(1) = Q.col(2).cross(Q.col(0)) * inverse_det;
+  out.col(2) = Q.col(0).cross(Q.col(1)) * inverse_det;
   return out;
 }
 
-/// Below this det F / (‖F‖/√3)³ (1 for a rotation times a uniform scale) the Newton
-/// iteration converges slowly and loses digits: the SVD handles those tets.
+/// Newton's scaling γ = det^(−1/3). Near det = 1 (most tets, and every tet after the
+/// first iterations) the first-order 1 − (det − 1)/3 is as good: the scaling only
+/// speeds convergence up, any γ near the optimum converges to the same rotation, and
+/// it saves a cube root per iteration.
+double newton_scaling(double det) {
+  const double offset = det - 1.0;
+  return std::abs(offset) < 1e-3 ? 1.0 - offset / 3.0 : 1.0 / std::cbrt(det);
+}
+
 constexpr double kNewtonMinRelativeDeterminant = 1e-3;
 constexpr int kNewtonMaxIterations = 12;
 
@@ -71,11 +79,12 @@ Mat3 polar_rotation(const Mat3& F) {
   if (std::isfinite(det) && det > kNewtonMinRelativeDeterminant * mean_square * std::sqrt(mean_square)) {
     Mat3 Q = F;
     for (int k = 0; k < kNewtonMaxIterations; ++k) {
-      const double gamma = 1.0 / std::cbrt(det);
+      const double gamma = newton_scaling(det);
       const Mat3 next = 0.5 * (gamma * Q + inverse_transpose(Q, det) / gamma);
       const double change = (next - Q).squaredNorm();
       Q = next;
-      if (change < 1e-24) return Q;  // quadratic: the next change would be ~1e-24 squared
+      // Quadratic convergence: after a step of 1e-6 the error is ~1e-12.
+      if (change < 1e-12) return Q;
       det = Q.determinant();
     }
   }

@@ -193,6 +193,12 @@ void ImplicitIntegrator::build_pattern() {
   outer[rows] = static_cast<int>(value);
   std::fill(m_matrix.valuePtr(), m_matrix.valuePtr() + value, 0.0);
 
+  // Each tet's corner rows (system_product's gather).
+  m_tet_dofs.resize(tet_count);
+  for (TetIndex t = 0; t < tet_count; ++t) {
+    for (int i = 0; i < 4; ++i) m_tet_dofs[t][i] = m_dof[tets(i, t)];
+  }
+
   // The right-hand side's gather: each free node's (tet, corner) slots in tet order.
   m_incidence_start.assign(free_count + 1, 0);
   for (TetIndex t = 0; t < tet_count; ++t) {
@@ -248,8 +254,6 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
     }
   });
   Eigen::VectorXd b(rows);
-  double* values = m_matrix.valuePtr();
-  const bool warped = m_elements.model == StiffnessModel::Warped;
   tbb::parallel_for(tbb::blocked_range<Index>(0, free_count, 64), [&](const tbb::blocked_range<Index>& range) {
     for (Index c = range.begin(); c != range.end(); ++c) {
       const NodeIndex n = m_free_nodes[c];
@@ -259,8 +263,82 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
         sum += h * m_tet_rhs[t].col(corner);
       }
       b.segment<3>(3 * c) = sum;
+    }
+  });
+  // The lagged factor is refreshed when the last solve needed too many iterations, the
+  // pattern changed (build_pattern drops the factor) or dt changed.
+  const bool lagged = s.solver == LinearSolver::ConjugateGradient && s.preconditioner == Preconditioner::LaggedCholesky;
+  const bool refactor_lagged = lagged && (!m_cholesky.factorized() || m_iterations > s.refactor_iterations ||
+                                          k_scale != m_factored_k_scale || m_scale != m_factored_m_scale);
+  // Only a factorization or Jacobi's product needs the assembled matrix: conjugate
+  // gradients with the lagged factor multiply by A element by element (system_product),
+  // which costs about what one sparse product does and saves the assembly.
+  if (!lagged || refactor_lagged) assemble_matrix(k_scale, m_scale);
+
+  m_phase_times.assembly = seconds_since(phase_start);
+  phase_start = Clock::now();
+  Eigen::VectorXd dv(rows);
+  SolveStatus status = SolveStatus::Converged;
+  const auto refactor = [&]() {
+    if (!m_cholesky.analyzed()) m_cholesky.analyze(m_matrix);
+    ++m_factorizations;
+    m_factored_k_scale = k_scale;
+    m_factored_m_scale = m_scale;
+    m_factored_rotations = m_elements.rotations;
+    // A preconditioner needs no more than single precision (see SparseCholesky).
+    return m_cholesky.factorize(m_matrix, lagged ? FactorPrecision::Single : FactorPrecision::Double);
+  };
+  if (s.solver == LinearSolver::Direct) {
+    if (!refactor()) return SolveStatus::NotPositiveDefinite;
+    m_cholesky.solve(b, dv);
+    m_iterations = 1;
+  } else {
+    for (Index c = 0; c < free_count; ++c) dv.segment<3>(3 * c) = m_last_dv.col(m_free_nodes[c]);
+    ApplyPreconditioner precondition;
+    Eigen::VectorXd inverse_diagonal;
+    ConjugateGradientResult cg;
+    if (lagged) {
+      if (refactor_lagged && !refactor()) return SolveStatus::NotPositiveDefinite;
+      update_node_rotations();
+      precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+        // z = R A_f⁻¹ Rᵀ r.
+        Eigen::VectorXd rotated(r.size());
+        for (Index c = 0; c < free_count; ++c) {
+          rotated.segment<3>(3 * c) = m_node_rotation[c].transpose() * r.segment<3>(3 * c);
+        }
+        m_cholesky.solve(rotated, z);
+        for (Index c = 0; c < free_count; ++c) z.segment<3>(3 * c) = m_node_rotation[c] * z.segment<3>(3 * c).eval();
+      };
+      const auto product = [&](const Eigen::VectorXd& x, Eigen::VectorXd& y) { system_product(k_scale, m_scale, x, y); };
+      cg = conjugate_gradient(product, b, dv, precondition, s.tolerance, s.max_iterations);
+    } else {
+      inverse_diagonal = m_matrix.diagonal().cwiseInverse();
+      precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { z = inverse_diagonal.cwiseProduct(r); };
+      cg = conjugate_gradient(m_matrix, b, dv, precondition, s.tolerance, s.max_iterations);
+    }
+    m_iterations = cg.iterations;
+    if (!cg.converged) status = SolveStatus::MaxIterations;
+  }
+  m_phase_times.solve = seconds_since(phase_start);
+  if (!dv.allFinite()) return SolveStatus::NonFinite;
+  for (Index c = 0; c < free_count; ++c) {
+    const NodeIndex n = m_free_nodes[c];
+    m_last_dv.col(n) = dv.segment<3>(3 * c);
+    velocities.col(n) += dv.segment<3>(3 * c);
+    positions.col(n) += h * velocities.col(n);
+  }
+  return status;
+}
+
+void ImplicitIntegrator::assemble_matrix(double k_scale, double m_scale) {
+  double* values = m_matrix.valuePtr();
+  const bool warped = m_elements.model == StiffnessModel::Warped;
+  const auto free_count = static_cast<Index>(m_free_nodes.size());
+  tbb::parallel_for(tbb::blocked_range<Index>(0, free_count, 64), [&](const tbb::blocked_range<Index>& range) {
+    for (Index c = range.begin(); c != range.end(); ++c) {
+      const NodeIndex n = m_free_nodes[c];
       // This node's block column: every block is one task's, so no two threads write
-      // the same value.
+      // the same value, and each block sums its terms in tet order.
       const Index column_length = 3 * (m_block_column_start[c + 1] - m_block_column_start[c]);
       for (Index block = m_block_column_start[c]; block < m_block_column_start[c + 1]; ++block) {
         Mat3 K = Mat3::Zero();
@@ -278,70 +356,54 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
       }
     }
   });
+}
 
-  m_phase_times.assembly = seconds_since(phase_start);
-  phase_start = Clock::now();
-  Eigen::VectorXd dv(rows);
-  SolveStatus status = SolveStatus::Converged;
-  const auto refactor = [&]() {
-    if (!m_cholesky.analyzed()) m_cholesky.analyze(m_matrix);
-    ++m_factorizations;
-    m_factored_k_scale = k_scale;
-    m_factored_m_scale = m_scale;
-    m_factored_rotations = m_elements.rotations;
-    return m_cholesky.factorize(m_matrix);
-  };
-  if (s.solver == LinearSolver::Direct) {
-    if (!refactor()) return SolveStatus::NotPositiveDefinite;
-    m_cholesky.solve(b, dv);
-    m_iterations = 1;
-  } else {
-    for (Index c = 0; c < free_count; ++c) dv.segment<3>(3 * c) = m_last_dv.col(m_free_nodes[c]);
-    ApplyPreconditioner precondition;
-    Eigen::VectorXd inverse_diagonal;
-    if (s.preconditioner == Preconditioner::LaggedCholesky) {
-      const bool stale = !m_cholesky.factorized() || m_iterations > s.refactor_iterations ||
-                         k_scale != m_factored_k_scale || m_scale != m_factored_m_scale;
-      if (stale && !refactor()) return SolveStatus::NotPositiveDefinite;
-      update_node_rotations();
-      precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
-        // z = R A_f⁻¹ Rᵀ r.
-        Eigen::VectorXd rotated(r.size());
-        for (Index c = 0; c < free_count; ++c) {
-          rotated.segment<3>(3 * c) = m_node_rotation[c].transpose() * r.segment<3>(3 * c);
-        }
-        m_cholesky.solve(rotated, z);
-        for (Index c = 0; c < free_count; ++c) z.segment<3>(3 * c) = m_node_rotation[c] * z.segment<3>(3 * c).eval();
-      };
-    } else {
-      inverse_diagonal = m_matrix.diagonal().cwiseInverse();
-      precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { z = inverse_diagonal.cwiseProduct(r); };
+void ImplicitIntegrator::system_product(double k_scale, double m_scale, const Eigen::VectorXd& x,
+                                        Eigen::VectorXd& y) {
+  // y = m_scale M x − k_scale K x. Per tet K_t x_t (pinned corners contribute 0), then
+  // per free node the sum over its slots in tet order: deterministic, like assembly.
+  const std::size_t tet_count = m_elasticity.tet_count();
+  m_tet_product.resize(tet_count);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tet_count, 512), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t t = r.begin(); t != r.end(); ++t) {
+      Mat34 u;
+      for (int j = 0; j < 4; ++j) {
+        const Index dof = m_tet_dofs[t][j];
+        u.col(j) = dof == kInvalidIndex ? Vec3::Zero() : Vec3(x.segment<3>(dof));
+      }
+      m_tet_product[t] = m_elasticity.stiffness_times(static_cast<TetIndex>(t), m_elements, u);
     }
-    const ConjugateGradientResult cg =
-        conjugate_gradient(m_matrix, b, dv, precondition, s.tolerance, s.max_iterations);
-    m_iterations = cg.iterations;
-    if (!cg.converged) status = SolveStatus::MaxIterations;
-  }
-  m_phase_times.solve = seconds_since(phase_start);
-  if (!dv.allFinite()) return SolveStatus::NonFinite;
-  for (Index c = 0; c < free_count; ++c) {
-    const NodeIndex n = m_free_nodes[c];
-    m_last_dv.col(n) = dv.segment<3>(3 * c);
-    velocities.col(n) += dv.segment<3>(3 * c);
-    positions.col(n) += h * velocities.col(n);
-  }
-  return status;
+  });
+  const auto free_count = static_cast<Index>(m_free_nodes.size());
+  y.resize(x.size());
+  tbb::parallel_for(tbb::blocked_range<Index>(0, free_count, 256), [&](const tbb::blocked_range<Index>& range) {
+    for (Index c = range.begin(); c != range.end(); ++c) {
+      Vec3 sum = Vec3::Zero();
+      for (Index k = m_incidence_start[c]; k < m_incidence_start[c + 1]; ++k) {
+        const auto& [t, corner] = m_incidence[k];
+        sum += m_tet_product[t].col(corner);
+      }
+      y.segment<3>(3 * c) = m_scale * m_mass[m_free_nodes[c]] * x.segment<3>(3 * c) - k_scale * sum;
+    }
+  });
 }
 
 void ImplicitIntegrator::update_node_rotations() {
+  // Each tet's rotation change once (a node has ~16 tets), then per node their sum.
+  const std::size_t tet_count = m_elasticity.tet_count();
+  m_tet_rotation_change.resize(tet_count);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tet_count, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t t = r.begin(); t != r.end(); ++t) {
+      m_tet_rotation_change[t].noalias() = m_elements.rotations[t] * m_factored_rotations[t].transpose();
+    }
+  });
   const auto free_count = static_cast<Index>(m_free_nodes.size());
   m_node_rotation.resize(free_count);
   tbb::parallel_for(tbb::blocked_range<Index>(0, free_count, 256), [&](const tbb::blocked_range<Index>& range) {
     for (Index c = range.begin(); c != range.end(); ++c) {
       Mat3 sum = Mat3::Zero();
       for (Index k = m_incidence_start[c]; k < m_incidence_start[c + 1]; ++k) {
-        const TetIndex t = m_incidence[k].first;
-        sum += m_elements.rotations[t] * m_factored_rotations[t].transpose();
+        sum += m_tet_rotation_change[m_incidence[k].first];
       }
       m_node_rotation[c] = polar_rotation(sum);
     }

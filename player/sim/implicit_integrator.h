@@ -126,6 +126,10 @@ class ImplicitIntegrator {
 
  private:
   void build_pattern();
+  /// The system's values from the last evaluate(), into the fixed pattern.
+  void assemble_matrix(double k_scale, double m_scale);
+  /// y = m_scale M x − k_scale K x on the free rows, element by element (no matrix).
+  void system_product(double k_scale, double m_scale, const Eigen::VectorXd& x, Eigen::VectorXd& y);
   /// m_node_rotation from the tets' rotations now and at the last factorization.
   void update_node_rotations();
   void lump_masses();
@@ -139,6 +143,7 @@ class ImplicitIntegrator {
   std::vector<std::uint8_t> m_pinned;
   std::vector<Index> m_dof;                  ///< node → first row in the system, kInvalidIndex if pinned
   std::vector<NodeIndex> m_free_nodes;       ///< free node of each 3-row block, in row order
+  std::vector<std::array<Index, 4>> m_tet_dofs;  ///< per tet: its corners' first rows, kInvalidIndex if pinned
   /// The system, both triangles, in whole 3×3 blocks: each block column (3 columns of
   /// one free node) lists the same rows. Steps refill its values in place.
   Eigen::SparseMatrix<double> m_matrix;
@@ -167,6 +172,8 @@ class ImplicitIntegrator {
   int m_factorizations = 0;
   std::vector<Mat3> m_factored_rotations;    ///< per tet: its rotation when A_f was factored
   std::vector<Mat3> m_node_rotation;         ///< per free node: its rotation since then
+  std::vector<Mat3> m_tet_rotation_change;   ///< per tet: Q_t Q_t,fᵀ (scratch)
+  std::vector<Mat34> m_tet_product;          ///< per tet: K_t x_t (system_product's scratch)
   Matrix3Xd m_last_dv;                       ///< per node: last Δv, the warm start for conjugate gradients
   int m_iterations = 0;
   ElementBuffers m_elements;

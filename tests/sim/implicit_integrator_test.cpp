@@ -106,8 +106,9 @@ TEST(ImplicitIntegrator, DirectAndBothConjugateGradientPreconditionersAgree) {
 
 TEST(ImplicitIntegrator, LaggedCholeskyFollowsARigidRotationWithoutRefactoring) {
   // A warped system after a rigid rotation R is exactly R A_f Rᵀ, so the rotated old
-  // factor is the exact inverse: conjugate gradients converge in one iteration and
-  // nothing is refactored, however large the rotation.
+  // factor is the exact inverse: conjugate gradients converge as fast as unrotated and
+  // nothing is refactored, however large the rotation. (The factor is kept in single
+  // precision, so one iteration gets ~1e-7, and this test's 1e-10 takes a second.)
   const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(2.0, 0.5, 0.5), 6, 2, 2);
   StepSettings settings;
   settings.solver = LinearSolver::ConjugateGradient;
@@ -129,7 +130,7 @@ TEST(ImplicitIntegrator, LaggedCholeskyFollowsARigidRotationWithoutRefactoring) 
     ASSERT_EQ(body.step(settings), SolveStatus::Converged);
     EXPECT_EQ(body.factorizations(), 1) << "angle " << angle;
     EXPECT_EQ(body.last_iterations(), unrotated_iterations) << "angle " << angle;
-    EXPECT_LE(body.last_iterations(), 1) << "angle " << angle;
+    EXPECT_LE(body.last_iterations(), 2) << "angle " << angle;
   }
 }
 

@@ -4,6 +4,8 @@
 
 #include <random>
 
+#include <tbb/global_control.h>
+
 #include "player/sim/conjugate_gradient.h"
 #include "player/sim/corotated_elasticity.h"
 #include "player/sim/sparse_cholesky.h"
@@ -147,6 +149,97 @@ TEST(SparseCholesky, RefusesAnIndefiniteMatrixAndKeepsItsAnalysis) {
   Eigen::VectorXd x;
   cholesky.solve(b, x);
   EXPECT_LT((A * x - b).norm(), 1e-10 * b.norm());
+}
+
+/// An implicit-step matrix M − h²K of a 4×1×1 m beam (both triangles): large
+/// supernodes, a condition number like the player's.
+Eigen::SparseMatrix<double> beam_system_matrix(int nx = 12, int ny = 3, int nz = 3) {
+  const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(4, 1, 1), nx, ny, nz);
+  const Material material{.density = 1000, .youngs_modulus = 1e6, .poisson_ratio = 0.3};
+  const CorotatedElasticity elasticity(cage.rest_positions, cage.tets, material);
+  const double h = 1.0 / 240.0;
+  std::vector<Eigen::Triplet<double>> entries;
+  for (TetIndex t = 0; t < elasticity.tet_count(); ++t) {
+    const Mat12 K = elasticity.stiffness(t, Mat3::Identity());
+    const double mass = material.density * elasticity.rest_volume(t) / 4.0;
+    for (int i = 0; i < 4; ++i) {
+      for (int a = 0; a < 3; ++a) {
+        const int row = 3 * static_cast<int>(cage.tets(i, t)) + a;
+        entries.emplace_back(row, row, mass);
+        for (int j = 0; j < 4; ++j) {
+          for (int b = 0; b < 3; ++b) {
+            entries.emplace_back(row, 3 * static_cast<int>(cage.tets(j, t)) + b, -h * h * K(3 * i + a, 3 * j + b));
+          }
+        }
+      }
+    }
+  }
+  const auto n = static_cast<int>(3 * cage.node_count());
+  Eigen::SparseMatrix<double> A(n, n);
+  A.setFromTriplets(entries.begin(), entries.end());
+  return A;
+}
+
+TEST(SparseCholesky, DoubleSolvesToRoundoffAndSingleIsASymmetricNearbyInverse) {
+  const Eigen::SparseMatrix<double> A = beam_system_matrix();
+  const Eigen::Index n = A.rows();
+  SparseCholesky cholesky;
+  cholesky.analyze(A);
+  ASSERT_TRUE(cholesky.factorize(A, FactorPrecision::Double));
+  EXPECT_GT(cholesky.factor_nonzeros(), static_cast<std::size_t>(A.nonZeros() / 2));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const Eigen::VectorXd b = Eigen::VectorXd::NullaryExpr(n, [&]() { return u(rng); });
+  const Eigen::VectorXd c = Eigen::VectorXd::NullaryExpr(n, [&]() { return u(rng); });
+  Eigen::VectorXd x_double, x_single, y_single;
+  cholesky.solve(b, x_double);
+  EXPECT_LT((A * x_double - b).norm(), 1e-10 * b.norm());
+  // Against an independent factorization.
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> reference(A);
+  const Eigen::VectorXd x_reference = reference.solve(b);
+  EXPECT_LT((x_double - x_reference).norm(), 1e-9 * x_reference.norm());
+
+  ASSERT_TRUE(cholesky.factorize(A, FactorPrecision::Single));
+  cholesky.solve(b, x_single);
+  cholesky.solve(c, y_single);
+  // Float rounding of L: a few digits are lost, not more (a preconditioner's job) ...
+  const double error = (x_single - x_reference).norm() / x_reference.norm();
+  EXPECT_LT(error, 1e-3);
+  EXPECT_GT(error, 1e-14);  // ... and the single-precision values were really used
+  // ... and it is still the inverse of a symmetric positive-definite matrix L̃ L̃ᵀ.
+  EXPECT_NEAR(c.dot(x_single), b.dot(y_single), 1e-12 * std::abs(c.dot(x_single)) + 1e-300);
+  EXPECT_GT(b.dot(x_single), 0.0);
+}
+
+TEST(SparseCholesky, TwoThreadSolvesAreExactAndIndependentOfTheThreadCount) {
+  // Large enough (~0.5M factor entries) for the solves to split over two threads.
+  const Eigen::SparseMatrix<double> A = beam_system_matrix(30, 6, 6);
+  const Eigen::Index n = A.rows();
+  SparseCholesky cholesky;
+  cholesky.analyze(A);
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(n, -1.0, 1.0).array().sin();
+  for (const FactorPrecision precision : {FactorPrecision::Double, FactorPrecision::Single}) {
+    ASSERT_TRUE(cholesky.factorize(A, precision));
+    EXPECT_TRUE(cholesky.solves_on_two_threads());
+    Eigen::VectorXd one_thread, two_threads;
+    {
+      const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+      cholesky.solve(b, one_thread);
+    }
+    {
+      const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+      cholesky.solve(b, two_threads);
+    }
+    EXPECT_EQ(one_thread, two_threads);  // bit for bit
+    const double tolerance = precision == FactorPrecision::Double ? 1e-10 : 1e-3;
+    EXPECT_LT((A * one_thread - b).norm(), tolerance * b.norm());
+  }
+  // A small factor is solved on one thread.
+  const Eigen::SparseMatrix<double> small = beam_system_matrix();
+  SparseCholesky small_cholesky;
+  small_cholesky.analyze(small);
+  ASSERT_TRUE(small_cholesky.factorize(small));
+  EXPECT_FALSE(small_cholesky.solves_on_two_threads());
 }
 
 }  // namespace
