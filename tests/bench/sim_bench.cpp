@@ -2,6 +2,8 @@
 // conjugate gradients with either preconditioner. Prints a Markdown table for BENCHMARKS.md.
 //
 //   fissure_sim_bench [--steps N] [--threads N] [--stiffness warped|exact] [--large] [--trace]
+//                     [--only TEXT]   (cases and solvers whose name contains TEXT, for profiling)
+//                     [--tolerance T] (conjugate gradients' relative residual; default 1e-6)
 // --large adds an 85k-tet beam (conjugate gradients only: the direct factorization
 // alone takes seconds there).
 #include <tbb/global_control.h>
@@ -30,6 +32,8 @@ int main(int argc, char** argv) {
   int steps = 20;
   bool large = false;
   bool trace = false;  // one line per step: iterations and solve time
+  std::string only;    // run only the cases and solvers whose "cage, solver" name contains it
+  double tolerance = 1e-6;
   sim::StiffnessModel stiffness = sim::StiffnessModel::Warped;
   std::unique_ptr<tbb::global_control> threads;
   for (int i = 1; i < argc; ++i) {
@@ -43,16 +47,20 @@ int main(int argc, char** argv) {
       stiffness = std::string(argv[++i]) == "exact" ? sim::StiffnessModel::Exact : sim::StiffnessModel::Warped;
     } else if (arg == "--trace") {
       trace = true;
+    } else if (arg == "--tolerance" && i + 1 < argc) {
+      tolerance = std::stod(argv[++i]);
+    } else if (arg == "--only" && i + 1 < argc) {
+      only = argv[++i];
     } else if (arg == "--large") {
       large = true;
     } else {
-      std::fprintf(stderr, "usage: fissure_sim_bench [--steps N] [--threads N] [--stiffness warped|exact] [--large] [--trace]\n");
+      std::fprintf(stderr, "usage: fissure_sim_bench [--steps N] [--threads N] [--stiffness warped|exact] [--large] [--trace] [--only TEXT] [--tolerance T]\n");
       return 1;
     }
   }
-  std::printf("threads: %d, stiffness: %s, %d steps per case\n\n",
+  std::printf("threads: %d, stiffness: %s, CG tolerance %g, %d steps per case\n\n",
               static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)),
-              stiffness == sim::StiffnessModel::Exact ? "exact" : "warped", steps);
+              stiffness == sim::StiffnessModel::Exact ? "exact" : "warped", tolerance, steps);
   std::vector<Case> cases;
   // The issue's reference beam: 4×1×1 m; grids near 1k and 10k tets.
   cases.push_back({"beam 4×1×1 m, 13×3×3", testing::grid_cage(Vec3::Zero(), Vec3(4, 1, 1), 13, 3, 3)});
@@ -75,6 +83,7 @@ int main(int argc, char** argv) {
     double jacobi_ms = 0.0;
     for (const SolverCase& solver : solvers) {
       if (c.cage.tet_count() > 50000 && solver.solver == sim::LinearSolver::Direct) continue;
+      if (!only.empty() && (c.name + ", " + solver.name).find(only) == std::string::npos) continue;
       sim::ImplicitIntegrator body(c.cage.rest_positions, c.cage.tets,
                                    sim::Material{.density = 1000, .youngs_modulus = 1e6, .poisson_ratio = 0.3});
       // Clamp the nodes at the lowest x, as the cantilever of the issue.
@@ -85,7 +94,7 @@ int main(int argc, char** argv) {
       sim::StepSettings settings;
       settings.solver = solver.solver;
       settings.preconditioner = solver.preconditioner;
-      settings.tolerance = 1e-6;
+      settings.tolerance = tolerance;
       settings.stiffness = stiffness;
       body.step(settings);  // first step: pattern, symbolic analysis, first factor: excluded
       const int factorizations_before = body.factorizations();
