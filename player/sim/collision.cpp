@@ -2,7 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_map>
+#include <map>
+#include <tuple>
 
 namespace fissure::sim {
 
@@ -370,82 +371,86 @@ ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environm
     return std::any_of(fragment.begin(), fragment.end(), [](Index f) { return f != 0; });
   }());
   if (settings.self_collision && several_pieces) {
-    // Spatial hash over the swept bounds of every point with a radius; pairs in the same
-    // fragment of the same body are skipped (they are held together elastically).
-    double cell = 0.0;
-    for (const auto& sweep : sweeps) {
-      for (const SweptPoint& p : sweep) cell = std::max(cell, 2.0 * p.radius);
+    // Sort and sweep over the swept bounds of the points that can meet another piece.
+    // (A spatial hash sized by the radius broke down with fine spheres: fast fragments'
+    // swept boxes spanned thousands of cells, and 18k spheres took 0.5 s a step.)
+    // 1. Each piece's bounds: a point matters only where it overlaps another piece's.
+    struct Piece {
+      Index body, fragment;
+      bool operator<(const Piece& o) const { return std::tie(body, fragment) < std::tie(o.body, o.fragment); }
+    };
+    const auto piece_of = [&](Index bi, Index k) {
+      return Piece{bi, (*bodies[bi].tet_fragment)[bodies[bi].points->tet[k]]};
+    };
+    // A blown-up point (non-finite position) cannot be placed, so it meets nothing.
+    const auto placeable = [&](Index bi, Index k) {
+      const SweptPoint& p = sweeps[bi][k];
+      return p.radius > 0.0 && p.start.allFinite() && p.end.allFinite();
+    };
+    std::map<Piece, AlignedBox> piece_bounds;
+    for (Index bi = 0; bi < bodies.size(); ++bi) {
+      for (Index k = 0; k < sweeps[bi].size(); ++k) {
+        if (placeable(bi, k)) piece_bounds[piece_of(bi, k)].add(sweeps[bi][k]);
+      }
     }
-    if (cell > 0.0) {
-      std::unordered_map<std::uint64_t, std::vector<std::pair<Index, Index>>> grid;
-      auto cell_of = [&](double v) { return static_cast<std::int64_t>(std::floor(v / cell)); };
-      auto key = [](std::int64_t x, std::int64_t y, std::int64_t z) {
-        return (static_cast<std::uint64_t>(x) * 73856093u) ^ (static_cast<std::uint64_t>(y) * 19349663u) ^
-               (static_cast<std::uint64_t>(z) * 83492791u);
-      };
-      std::vector<std::tuple<Index, Index, Index, Index>> pairs;
-      auto same_fragment = [&](Index bi, Index k, Index bj, Index kj) {
-        return bi == bj && (*bodies[bi].tet_fragment)[bodies[bi].points->tet[k]] ==
-                               (*bodies[bi].tet_fragment)[bodies[bi].points->tet[kj]];
-      };
-      // A point whose swept box spans more than kMaxCells cells (a fast fragment, or a
-      // blown-up one) is not hashed: walking its cells would take O((reach / cell)³)
-      // time and memory. It is tested against every other point instead.
-      constexpr double kMaxCells = 512.0;
-      std::vector<std::pair<Index, Index>> oversized;
-      for (Index bi = 0; bi < bodies.size(); ++bi) {
-        for (Index k = 0; k < sweeps[bi].size(); ++k) {
-          const SweptPoint& p = sweeps[bi][k];
-          if (p.radius <= 0.0) continue;
-          AlignedBox box;
-          box.add(p);
-          const Vec3 span = ((box.max - box.min) / cell).array().floor() + 2.0;
-          if (!(span.prod() <= kMaxCells)) {  // also catches non-finite positions
-            oversized.emplace_back(bi, k);
-            continue;
-          }
-          for (auto x = cell_of(box.min.x()); x <= cell_of(box.max.x()); ++x) {
-            for (auto y = cell_of(box.min.y()); y <= cell_of(box.max.y()); ++y) {
-              for (auto z = cell_of(box.min.z()); z <= cell_of(box.max.z()); ++z) {
-                auto& bucket = grid[key(x, y, z)];
-                for (const auto& [bj, kj] : bucket) {
-                  if (!same_fragment(bi, k, bj, kj)) pairs.emplace_back(bj, kj, bi, k);
-                }
-                bucket.emplace_back(bi, k);
-              }
-            }
-          }
+    const std::vector<std::pair<Piece, AlignedBox>> pieces(piece_bounds.begin(), piece_bounds.end());
+    // Past this many pieces (a shattered body) the per-point filter would cost more than
+    // it saves: every point goes to the sweep.
+    constexpr std::size_t kMaxFilteredPieces = 64;
+    const bool filter = pieces.size() <= kMaxFilteredPieces;
+    struct Candidate {
+      AlignedBox box;
+      Index body, point, piece;  // piece: index into `pieces`
+    };
+    std::vector<Candidate> candidates;
+    for (Index bi = 0; bi < bodies.size(); ++bi) {
+      for (Index k = 0; k < sweeps[bi].size(); ++k) {
+        if (!placeable(bi, k)) continue;
+        Candidate c{{}, bi, k, 0};
+        c.box.add(sweeps[bi][k]);
+        const Piece piece = piece_of(bi, k);
+        c.piece = static_cast<Index>(
+            std::lower_bound(pieces.begin(), pieces.end(), piece, [](const auto& e, const Piece& p) { return e.first < p; }) -
+            pieces.begin());
+        const bool near_another = !filter || std::any_of(pieces.begin(), pieces.end(), [&](const auto& other) {
+          return &other != &pieces[c.piece] && c.box.overlaps(other.second);
+        });
+        if (near_another) candidates.push_back(c);
+      }
+    }
+    // 2. Sweep along the axis where the candidates spread most; ties in a fixed order,
+    // so the pairs (and the contacts) do not depend on anything but the state.
+    AlignedBox extent;
+    for (const Candidate& c : candidates) {
+      extent.min = extent.min.cwiseMin(c.box.min);
+      extent.max = extent.max.cwiseMax(c.box.max);
+    }
+    int axis = 0;
+    if (!candidates.empty()) (extent.max - extent.min).maxCoeff(&axis);
+    std::sort(candidates.begin(), candidates.end(), [axis](const Candidate& x, const Candidate& y) {
+      return std::tie(x.box.min[axis], x.body, x.point) < std::tie(y.box.min[axis], y.body, y.point);
+    });
+    std::vector<std::tuple<Index, Index, Index, Index>> pairs;
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+      const Candidate& ci = candidates[i];
+      for (std::size_t j = i + 1; j < candidates.size() && candidates[j].box.min[axis] <= ci.box.max[axis]; ++j) {
+        const Candidate& cj = candidates[j];
+        if (cj.piece == ci.piece || !ci.box.overlaps(cj.box)) continue;
+        // (earlier point, later point) in (body, index) order, as the narrow phase expects.
+        if (std::pair{ci.body, ci.point} < std::pair{cj.body, cj.point}) {
+          pairs.emplace_back(ci.body, ci.point, cj.body, cj.point);
+        } else {
+          pairs.emplace_back(cj.body, cj.point, ci.body, ci.point);
         }
       }
-      for (const auto& [bi, k] : oversized) {
-        AlignedBox reach;
-        reach.add(sweeps[bi][k]);
-        for (Index bj = 0; bj < bodies.size(); ++bj) {
-          for (Index kj = 0; kj < sweeps[bj].size(); ++kj) {
-            if (sweeps[bj][kj].radius <= 0.0 || (bj == bi && kj == k) || same_fragment(bi, k, bj, kj)) continue;
-            AlignedBox other;
-            other.add(sweeps[bj][kj]);
-            if (!reach.overlaps(other)) continue;
-            // Same order as the hashed pairs, (earlier point, later point), so duplicates
-            // (two oversized points) collapse below.
-            if (std::pair{bj, kj} < std::pair{bi, k}) {
-              pairs.emplace_back(bj, kj, bi, k);
-            } else {
-              pairs.emplace_back(bi, k, bj, kj);
-            }
-          }
-        }
-      }
-      // A pair sharing several cells appears several times; hash collisions add false
-      // candidates, which the narrow phase rejects.
-      std::sort(pairs.begin(), pairs.end());
-      pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-      counts.pairs_tested = pairs.size();
-      for (const auto& [bj, kj, bi, k] : pairs) {
-        const Side a{Side::Kind::Embedded, bi, k}, b{Side::Kind::Embedded, bj, kj};
-        pair_contact(a, sweeps[bi][k], b, sweeps[bj][kj], combine(bodies[bi].material, bodies[bj].material),
-                     contacts, counts);
-      }
+    }
+    // 3. Narrow phase in pair order (each pair is found once).
+    std::sort(pairs.begin(), pairs.end());
+    counts.pairs_tested = pairs.size();
+    for (const auto& [bj, kj, bi, k] : pairs) {
+      const Side a{Side::Kind::Embedded, bi, k}, b{Side::Kind::Embedded, bj, kj};
+      pair_contact(a, sweeps[bi][k], b, sweeps[bj][kj], combine(bodies[bi].material, bodies[bj].material), contacts,
+                   counts);
     }
   }
   counts.contacts = contacts.size();
