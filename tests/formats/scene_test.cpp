@@ -199,7 +199,7 @@ TEST(SceneReader, DefaultsApply) {
   EXPECT_EQ(scene.solver.dt, 1.0 / 240);
   EXPECT_EQ(scene.solver.min_dt, 0);
   EXPECT_EQ(scene.solver.solver, SceneSolver::ConjugateGradient);
-  EXPECT_EQ(scene.solver.tolerance, 1e-6);
+  EXPECT_EQ(scene.solver.tolerance, 1e-4);
   EXPECT_EQ(scene.solver.max_iterations, 500);
   EXPECT_EQ(scene.solver.preconditioner, ScenePreconditioner::Cholesky);
   EXPECT_EQ(scene.solver.stiffness, SceneStiffness::Warped);
