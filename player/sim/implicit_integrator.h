@@ -5,7 +5,9 @@
 /// Rayleigh damping D = −α M + β K, lumped masses, gravity, and pinned nodes removed
 /// from the system. The sparsity pattern is built once and rebuilt only when fracture
 /// splits a node; steps refill its values in place, and the direct solver reuses its
-/// symbolic analysis until the pattern changes.
+/// symbolic analysis until the pattern changes. Conjugate gradients with the lagged
+/// Cholesky preconditioner never need the matrix itself (they multiply element by
+/// element), so it is assembled only on the steps that refresh the factor.
 ///
 /// A step is two calls so fracture can act in between: evaluate() computes every
 /// tet's rotation, forces and stiffness (in parallel); solve() assembles and solves.
@@ -113,7 +115,7 @@ class ImplicitIntegrator {
   /// Wall-clock seconds of the last step's phases.
   struct PhaseTimes {
     double forces = 0;    ///< rotations, elastic forces and element stiffness (evaluate)
-    double assembly = 0;  ///< the system's values, gravity and damping
+    double assembly = 0;  ///< the right-hand side, and the matrix when a factorization or Jacobi needs it
     double solve = 0;     ///< factorization and solve, or CG (with any refactorization)
   };
   [[nodiscard]] const PhaseTimes& last_phase_times() const { return m_phase_times; }

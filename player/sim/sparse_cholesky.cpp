@@ -165,15 +165,18 @@ struct SubtreeSplit {
 /// Below this many factor entries a solve is too short to pay for waking a thread.
 constexpr double kParallelSolveMinEntries = 200'000;
 
-/// Opens the largest subtree into its children until none holds more than a third of
-/// their total, then deals them to two threads, largest first (to the lighter one).
+/// Opens subtrees from the root down, largest first, and deals each candidate frontier
+/// to two threads (largest subtree first, to the lighter thread); keeps the frontier
+/// with the cheapest sweep (the rest alone, then the heavier thread). No split for a
+/// small factor, or if the supernodes are not in postorder (then a subtree would not be
+/// a range).
 SubtreeSplit find_split(const Supernodes& L, int n) {
   const int count = L.count;
   std::vector<int> column_super(static_cast<std::size_t>(n));
   for (int s = 0; s < count; ++s) {
     for (int k = L.super[s]; k < L.super[s + 1]; ++k) column_super[k] = s;
   }
-  std::vector<int> parent(count, -1), first_descendant(count);
+  std::vector<int> parent(count, -1), first_descendant(count), subtree_size(count, 1);
   std::vector<double> work(count, 0.0);
   double total = 0.0;
   for (int s = 0; s < count; ++s) {
@@ -183,13 +186,17 @@ SubtreeSplit find_split(const Supernodes& L, int n) {
     total += work[s];
     first_descendant[s] = s;
   }
+  SubtreeSplit split;
   for (int s = 0; s < count; ++s) {  // postorder: children come before their parent
     if (parent[s] < 0) continue;
-    FISSURE_ASSERT(parent[s] > s);
+    if (parent[s] <= s) return split;
     work[parent[s]] += work[s];
+    subtree_size[parent[s]] += subtree_size[s];
     first_descendant[parent[s]] = std::min(first_descendant[parent[s]], first_descendant[s]);
   }
-  SubtreeSplit split;
+  for (int s = 0; s < count; ++s) {
+    if (s - first_descendant[s] + 1 != subtree_size[s]) return split;  // not a postorder
+  }
   if (total < kParallelSolveMinEntries) return split;
   std::vector<std::vector<int>> children(count);
   std::vector<int> frontier;
@@ -420,9 +427,9 @@ void SparseCholesky::reset() {
 bool SparseCholesky::solves_on_two_threads() const { return m_factorized && m_impl->split.used(); }
 
 std::size_t SparseCholesky::factor_nonzeros() const {
-  if (m_impl->factor == nullptr || !m_factorized) return 0;
-  // Each supernode's block is nrows × ncols, of which the upper part of the diagonal
-  // block is unused.
+  // Known from the analysis: supernodal analysis fixes every supernode's block,
+  // nrows × ncols, of which the upper part of the diagonal block is unused.
+  if (m_impl->factor == nullptr || m_impl->factor->is_super == 0) return 0;
   const cholmod_factor& L = *m_impl->factor;
   const auto* super = static_cast<const int*>(L.super);
   const auto* pi = static_cast<const int*>(L.pi);

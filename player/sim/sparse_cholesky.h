@@ -46,7 +46,7 @@ class SparseCholesky {
   void reset();
   /// Whether solve() splits its sweeps over two threads (large factors only).
   [[nodiscard]] bool solves_on_two_threads() const;
-  /// Nonzeros of L (including its diagonal), for reports and benchmarks.
+  /// Nonzeros of L (including its diagonal), known once analyze() has run.
   [[nodiscard]] std::size_t factor_nonzeros() const;
 
  private:

@@ -107,8 +107,8 @@ TEST(ImplicitIntegrator, DirectAndBothConjugateGradientPreconditionersAgree) {
 TEST(ImplicitIntegrator, LaggedCholeskyFollowsARigidRotationWithoutRefactoring) {
   // A warped system after a rigid rotation R is exactly R A_f Rᵀ, so the rotated old
   // factor is the exact inverse: conjugate gradients converge as fast as unrotated and
-  // nothing is refactored, however large the rotation. (The factor is kept in single
-  // precision, so one iteration gets ~1e-7, and this test's 1e-10 takes a second.)
+  // nothing is refactored, however large the rotation. (A large factor is kept in single
+  // precision, where one iteration gets ~1e-7 and this test's 1e-10 takes a second.)
   const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(2.0, 0.5, 0.5), 6, 2, 2);
   StepSettings settings;
   settings.solver = LinearSolver::ConjugateGradient;
