@@ -34,6 +34,7 @@
 
 #include "common/error.h"
 #include "player/sim/implicit_integrator.h"
+#include "tests/support/bench_args.h"
 #include "tests/support/procedural.h"
 
 #ifndef BT_USE_DOUBLE_PRECISION
@@ -491,17 +492,7 @@ void print_deflection_table(const std::vector<Beam>& beams, int settle_steps) {
 }
 
 int parse_count(const std::string& flag, const std::string& value, int minimum) {
-  std::size_t used = 0;
-  int n = 0;
-  try {
-    n = std::stoi(value, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != value.size() || n < minimum) {
-    throw Error(flag + " " + value + " is not an integer ≥ " + std::to_string(minimum), kUsage);
-  }
-  return n;
+  return testing::parse_integer_option(flag, value, minimum, kUsage);
 }
 
 /// "13x3x3,36x7x7" → {{13, 3, 3}, {36, 7, 7}}.

@@ -24,6 +24,7 @@
 #include "common/error.h"
 #include "formats/cage_io.h"
 #include "player/sim/implicit_integrator.h"
+#include "tests/support/bench_args.h"
 #include "tests/support/procedural.h"
 
 namespace {
@@ -272,17 +273,7 @@ void sweep(const Case& c) {
 }
 
 int parse_thread_count(const std::string& value) {
-  std::size_t used = 0;
-  int n = 0;
-  try {
-    n = std::stoi(value, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != value.size() || n < 1) {
-    throw Error("--threads " + value + " is not a positive integer", "pass a whole number of threads, e.g. --threads 2");
-  }
-  return n;
+  return testing::parse_integer_option("--threads", value, 1, "pass a whole number of threads, e.g. --threads 2");
 }
 
 }  // namespace
