@@ -1,6 +1,7 @@
 #include "player/sim/sparse_cholesky.h"
 
 #include <cholmod.h>
+#include <omp.h>
 
 #include <tbb/parallel_invoke.h>
 
@@ -14,6 +15,25 @@
 namespace fissure::sim {
 
 namespace {
+
+/// Runs CHOLMOD's OpenMP regions on the calling thread alone, for the scope's lifetime.
+///
+/// Debian 12's CHOLMOD (3.0.14) asks for 4 OpenMP threads in its supernodal factorization
+/// whatever the machine has. On 2 cores, with the step's TBB workers awake as well, waking them
+/// cost 5-6x the arithmetic: one factorization of the 10,024-tet bunny cage took 246 ms with
+/// them, 38 ms without (OMP_THREAD_LIMIT=1, same run). A step's parallelism is TBB's, so
+/// CHOLMOD runs serial. max-active-levels is a per-thread ICV in libgomp, so this touches
+/// only the calling thread and leaves a host application's own OpenMP use alone.
+class SerialOpenMpScope {
+ public:
+  SerialOpenMpScope() : m_saved_levels(omp_get_max_active_levels()) { omp_set_max_active_levels(0); }
+  ~SerialOpenMpScope() { omp_set_max_active_levels(m_saved_levels); }
+  SerialOpenMpScope(const SerialOpenMpScope&) = delete;
+  SerialOpenMpScope& operator=(const SerialOpenMpScope&) = delete;
+
+ private:
+  int m_saved_levels;
+};
 
 /// A CHOLMOD view of A's lower triangle (no copy).
 cholmod_sparse view_lower(const Eigen::SparseMatrix<double>& A) {
@@ -294,6 +314,7 @@ SparseCholesky::~SparseCholesky() = default;
 void SparseCholesky::analyze(const Eigen::SparseMatrix<double>& A) {
   reset();
   cholmod_sparse view = view_lower(A);
+  const SerialOpenMpScope serial;
   m_impl->factor = cholmod_analyze(&view, &m_impl->common);
   FISSURE_ASSERT(m_impl->factor != nullptr);
 }
@@ -304,6 +325,7 @@ bool SparseCholesky::factorize(const Eigen::SparseMatrix<double>& A, FactorPreci
   FISSURE_ASSERT(analyzed());
   Impl& impl = *m_impl;
   cholmod_sparse view = view_lower(A);
+  const SerialOpenMpScope serial;
   const int ok = cholmod_factorize(&view, impl.factor, &impl.common);
   m_factorized = ok != 0 && impl.common.status == CHOLMOD_OK && impl.factor->is_super != 0 &&
                  impl.factor->minor == impl.factor->n;
