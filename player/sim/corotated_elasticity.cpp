@@ -46,16 +46,6 @@ SignedSvd signed_svd(const Mat3& F) {
 
 namespace {
 
-/// Q⁻ᵀ from Q's columns: (q₁×q₂, q₂×q₀, q₀×q₁) / det Q.
-Mat3 inverse_transpose(const Mat3& Q, double det) {
-  const double inverse_det = 1.0 / det;
-  Mat3 out;
-  out.col(0) = Q.col(1).cross(Q.col(2)) * inverse_det;
-  out.col(1) = Q.col(2).cross(Q.col(0)) * inverse_det;
-  out.col(2) = Q.col(0).cross(Q.col(1)) * inverse_det;
-  return out;
-}
-
 /// Newton's scaling γ = det^(−1/3). Near det = 1 (most tets, and every tet after the
 /// first iterations) the first-order 1 − (det − 1)/3 is as good: the scaling only
 /// speeds convergence up, any γ near the optimum converges to the same rotation, and
@@ -68,24 +58,49 @@ double newton_scaling(double det) {
 constexpr double kNewtonMinRelativeDeterminant = 1e-3;
 constexpr int kNewtonMaxIterations = 12;
 
+/// c = a × b on three doubles.
+inline void cross(const double* a, const double* b, double* c) {
+  c[0] = a[1] * b[2] - a[2] * b[1];
+  c[1] = a[2] * b[0] - a[0] * b[2];
+  c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
 }  // namespace
 
 Mat3 polar_rotation(const Mat3& F) {
   // Higham's Newton iteration Q ← ½ (γ Q + Q⁻ᵀ/γ), γ = |det Q|^(−1/3), converges
   // quadratically to the polar rotation for det F > 0. It is about 10× cheaper than a
   // Jacobi SVD, which dominated the element loop.
+  //
+  // Written on plain column arrays because it is the element loop's largest cost: the
+  // cofactor columns (q₁×q₂, q₂×q₀, q₀×q₁) give both Q⁻ᵀ = cofactor/det and det itself
+  // (q₀·(q₁×q₂)), so an iteration is one set of cross products and one division.
+  // Measured against the Eigen-expression version it replaces, alternating in one run:
+  // the 987-tet cage's element loop 0.28 → 0.25 ms on one thread. What is left is the
+  // latency of one dependent chain per tet (cofactors → det → γ → division).
   const double mean_square = F.squaredNorm() / 3.0;
-  double det = F.determinant();
+  double q[9], cofactor[9];
+  for (int k = 0; k < 9; ++k) q[k] = F.data()[k];
+  const auto cofactors = [&]() {
+    cross(q + 3, q + 6, cofactor);
+    cross(q + 6, q, cofactor + 3);
+    cross(q, q + 3, cofactor + 6);
+    return q[0] * cofactor[0] + q[1] * cofactor[1] + q[2] * cofactor[2];
+  };
+  double det = cofactors();
   if (std::isfinite(det) && det > kNewtonMinRelativeDeterminant * mean_square * std::sqrt(mean_square)) {
-    Mat3 Q = F;
-    for (int k = 0; k < kNewtonMaxIterations; ++k) {
+    for (int iteration = 0; iteration < kNewtonMaxIterations; ++iteration) {
       const double gamma = newton_scaling(det);
-      const Mat3 next = 0.5 * (gamma * Q + inverse_transpose(Q, det) / gamma);
-      const double change = (next - Q).squaredNorm();
-      Q = next;
+      const double a = 0.5 * gamma, b = 0.5 / (gamma * det);
+      double change = 0.0;
+      for (int k = 0; k < 9; ++k) {
+        const double next = a * q[k] + b * cofactor[k];
+        change += (next - q[k]) * (next - q[k]);
+        q[k] = next;
+      }
       // Quadratic convergence: after a step of 1e-6 the error is ~1e-12.
-      if (change < 1e-12) return Q;
-      det = Q.determinant();
+      if (change < 1e-12) return Eigen::Map<const Mat3>(q);
+      det = cofactors();
     }
   }
   const SignedSvd svd = signed_svd(F);
