@@ -122,15 +122,42 @@ bool FractureTopology::update_fragments(const Matrix4Xu& tets) {
   return changed;
 }
 
-void separation_field(const ImplicitIntegrator& body, SeparationField& out) {
+void separation_field(const ImplicitIntegrator& body, SeparationField& out, double only_above) {
   const ElementBuffers& elements = body.elements();
   const CorotatedElasticity& elasticity = body.elasticity();
   const std::size_t tet_count = elasticity.tet_count();
   FISSURE_ASSERT(elements.stress.size() == tet_count);
+  const Index node_count = body.node_count();
+  const Matrix4Xu& tets = elasticity.tets();
+  // Which nodes can exceed `only_above`. m(v) is positive semi-definite with largest
+  // eigenvalue |v|, so λmax(ς) ≤ ½ (Σ |f⁺ᵢ| + Σ |f⁻ᵢ|), and |f±ᵢ| = V |σ± Q gᵢ| ≤
+  // V ‖σ‖_F |gᵢ|: the bound Σ V ‖σ‖_F |gᵢ| over the node's slots. It is exact
+  // arithmetic on the same stresses, so skipping a node below it changes no split.
+  std::vector<char> needed(node_count, 1);
+  if (only_above > 0.0) {
+    std::vector<double> bound(node_count, 0.0);
+    for (std::size_t t = 0; t < tet_count; ++t) {
+      const auto tet = static_cast<TetIndex>(t);
+      const double scale = elasticity.rest_volume(tet) * elements.stress[t].norm();
+      for (int i = 0; i < 4; ++i) {
+        bound[tets(i, static_cast<Eigen::Index>(t))] += scale * elasticity.shape_gradients(tet).col(i).norm();
+      }
+    }
+    // The margin covers the rounding of the bound's own sums.
+    const double threshold = only_above * (1.0 - 1e-9);
+    for (NodeIndex n = 0; n < node_count; ++n) needed[n] = bound[n] > threshold ? 1 : 0;
+  }
+  const auto tet_needed = [&](std::size_t t) {
+    for (int i = 0; i < 4; ++i) {
+      if (needed[tets(i, static_cast<Eigen::Index>(t))] != 0) return true;
+    }
+    return false;
+  };
   // Per tet: the tensile and compressive nodal forces (parallel, one slot per tet).
   std::vector<Mat34> tensile(tet_count), compressive(tet_count);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tet_count, 512), [&](const auto& range) {
     for (std::size_t t = range.begin(); t != range.end(); ++t) {
+      if (!tet_needed(t)) continue;
       Eigen::SelfAdjointEigenSolver<Mat3> eigen;
       eigen.computeDirect(elements.stress[t]);
       Mat3 positive = Mat3::Zero();
@@ -147,13 +174,12 @@ void separation_field(const ImplicitIntegrator& body, SeparationField& out) {
     }
   });
   // Per node, in tet order so the sums do not depend on the thread count.
-  const Index node_count = body.node_count();
   std::vector<Vec3> sum_tensile(node_count, Vec3::Zero()), sum_compressive(node_count, Vec3::Zero());
   std::vector<Mat3> tensor(node_count, Mat3::Zero());
-  const Matrix4Xu& tets = elasticity.tets();
   for (std::size_t t = 0; t < tet_count; ++t) {
     for (int i = 0; i < 4; ++i) {
       const NodeIndex n = tets(i, static_cast<Eigen::Index>(t));
+      if (needed[n] == 0) continue;
       sum_tensile[n] += tensile[t].col(i);
       sum_compressive[n] += compressive[t].col(i);
       tensor[n] += outer_over_norm(tensile[t].col(i)) - outer_over_norm(compressive[t].col(i));
@@ -162,6 +188,7 @@ void separation_field(const ImplicitIntegrator& body, SeparationField& out) {
   out.eigenvalue.assign(node_count, 0.0);
   out.direction.assign(node_count, Vec3::Zero());
   for (NodeIndex n = 0; n < node_count; ++n) {
+    if (needed[n] == 0) continue;
     const Mat3 separation =
         0.5 * (tensor[n] - outer_over_norm(sum_tensile[n]) + outer_over_norm(sum_compressive[n]));
     Eigen::SelfAdjointEigenSolver<Mat3> eigen;
@@ -175,7 +202,7 @@ void fracture(ImplicitIntegrator& body, FractureTopology& topology, const Fractu
               std::vector<NodeSplit>& splits, std::vector<TetFace>& newly_exposed) {
   if (settings.max_splits_per_step <= 0 || !(settings.toughness < std::numeric_limits<double>::infinity())) return;
   SeparationField field;
-  separation_field(body, field);
+  separation_field(body, field, settings.toughness);
   std::vector<NodeIndex> candidates;
   for (NodeIndex n = 0; n < field.eigenvalue.size(); ++n) {
     if (field.eigenvalue[n] > settings.toughness && topology.incident(n).size() > 1) candidates.push_back(n);

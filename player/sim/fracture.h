@@ -82,7 +82,11 @@ struct SeparationField {
   std::vector<double> eigenvalue;
   std::vector<Vec3> direction;
 };
-void separation_field(const ImplicitIntegrator& body, SeparationField& out);
+/// With `only_above` > 0, nodes whose separation provably cannot exceed it (an upper
+/// bound from the stresses' norms, see fracture.cpp) are skipped and left at eigenvalue
+/// 0, direction 0: a body at rest, or stressed far below its toughness, pays only for
+/// the bound. Every node above the bound gets the same value as without it.
+void separation_field(const ImplicitIntegrator& body, SeparationField& out, double only_above = 0.0);
 
 /// Splits up to max_splits_per_step nodes whose separation exceeds the toughness,
 /// largest first (ties by node index), each node at most once per call. Appends the

@@ -73,6 +73,40 @@ double separation_at_strain(double strain) {
   return *std::max_element(field.eigenvalue.begin(), field.eigenvalue.end());
 }
 
+TEST(Fracture, SkippingNodesBelowTheBoundChangesNoValueAboveIt) {
+  // A bar bent and stretched unevenly, so its nodes' separations spread over a range.
+  ImplicitIntegrator body(bar().rest_positions, bar().tets, kMaterial);
+  for (Index n = 0; n < body.node_count(); ++n) {
+    const double x = bar().rest_positions(0, n);
+    body.positions(0, n) *= 1.0 + 0.08 * x * x / (kLength * kLength);
+    body.positions(2, n) += 0.02 * std::sin(3.0 * x);
+  }
+  body.evaluate(StepSettings{}, true);
+  SeparationField full;
+  separation_field(body, full);
+  const double largest = *std::max_element(full.eigenvalue.begin(), full.eigenvalue.end());
+  ASSERT_GT(largest, 0.0);
+  int skipped = 0, kept = 0;
+  for (const double fraction : {0.3, 0.6, 0.9}) {
+    const double threshold = fraction * largest;
+    SeparationField partial;
+    separation_field(body, partial, threshold);
+    for (Index n = 0; n < body.node_count(); ++n) {
+      if (partial.direction[n] == Vec3::Zero()) {
+        ++skipped;
+        EXPECT_LE(full.eigenvalue[n], threshold) << "node " << n << " was skipped but exceeds the threshold";
+      } else {
+        ++kept;
+        EXPECT_EQ(partial.eigenvalue[n], full.eigenvalue[n]) << "node " << n;  // bit-identical
+        EXPECT_EQ(partial.direction[n], full.direction[n]) << "node " << n;
+      }
+    }
+  }
+  std::printf("separation bound: %d node evaluations skipped, %d kept over three thresholds\n", skipped, kept);
+  EXPECT_GT(skipped, 0);  // the bound is tight enough to skip something here
+  EXPECT_GT(kept, 0);
+}
+
 /// Pins both ends of the bar, then pulls the x = max end outward at `speed` for `steps`
 /// steps. Returns the largest separation eigenvalue seen before any split.
 double pull(Breakable& b, double speed, int steps, std::vector<NodeSplit>& all_splits) {
