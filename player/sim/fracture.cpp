@@ -131,8 +131,9 @@ void separation_field(const ImplicitIntegrator& body, SeparationField& out, doub
   const Matrix4Xu& tets = elasticity.tets();
   // Which nodes can exceed `only_above`. m(v) is positive semi-definite with largest
   // eigenvalue |v|, so λmax(ς) ≤ ½ (Σ |f⁺ᵢ| + Σ |f⁻ᵢ|), and |f±ᵢ| = V |σ± Q gᵢ| ≤
-  // V ‖σ‖_F |gᵢ|: the bound Σ V ‖σ‖_F |gᵢ| over the node's slots. It is exact
-  // arithmetic on the same stresses, so skipping a node below it changes no split.
+  // V ‖σ‖_F |gᵢ|: the bound Σ V ‖σ‖_F |gᵢ| over the node's slots. A node below it
+  // cannot exceed `only_above`, so skipping it changes no split; the nodes kept are
+  // computed exactly as before.
   std::vector<char> needed(node_count, 1);
   if (only_above > 0.0) {
     std::vector<double> bound(node_count, 0.0);
