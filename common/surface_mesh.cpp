@@ -5,6 +5,8 @@
 #include <numeric>
 #include <vector>
 
+#include "common/union_find.h"
+
 namespace fissure {
 
 double triangle_area(const SurfaceMesh& mesh, TriangleIndex t) {
@@ -21,18 +23,6 @@ bool is_degenerate(const SurfaceMesh& mesh, TriangleIndex t) {
   const double longest = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
   return !(triangle_area(mesh, t) > 1e-12 * longest);
 }
-
-namespace {
-
-Index find_root(std::vector<Index>& parent, Index v) {
-  while (parent[v] != v) {
-    parent[v] = parent[parent[v]];
-    v = parent[v];
-  }
-  return v;
-}
-
-}  // namespace
 
 std::vector<Index> position_representatives(const Matrix3Xd& positions) {
   const auto n = static_cast<Index>(positions.cols());

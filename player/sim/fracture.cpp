@@ -9,6 +9,7 @@
 
 #include "common/assert.h"
 #include "common/tet_mesh.h"
+#include "common/union_find.h"
 
 namespace fissure::sim {
 
@@ -25,14 +26,6 @@ std::array<Index, 3> sorted_face(const Matrix4Xu& tets, TetFace f) {
 Mat3 outer_over_norm(const Vec3& v) {
   const double norm = v.norm();
   return norm > 0.0 ? Mat3(v * v.transpose() / norm) : Mat3::Zero();
-}
-
-Index find_root(std::vector<Index>& parent, Index i) {
-  while (parent[i] != i) {
-    parent[i] = parent[parent[i]];
-    i = parent[i];
-  }
-  return i;
 }
 
 }  // namespace
