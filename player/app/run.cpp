@@ -33,7 +33,7 @@ struct Phases {
 struct Summary {
   double energy_initial = 0, energy_final = 0, energy_max = 0;
   Vec3 momentum_initial, momentum_final, angular_initial, angular_final;
-  std::size_t splits = 0, exposed = 0, contacts = 0, swept = 0, unconverged = 0;
+  std::size_t splits = 0, exposed = 0, contacts = 0, swept = 0, unconverged = 0, response_iterations = 0;
   long iterations = 0;
   long factorizations = 0;
   int substeps_max = 1;
@@ -125,6 +125,7 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
     summary.exposed += r.exposed.size();
     summary.contacts += r.contacts.contacts;
     summary.swept += r.contacts.swept;
+    summary.response_iterations += r.contacts.response_iterations;
     summary.unconverged += r.unconverged ? 1 : 0;
     summary.iterations += r.solver_iterations;
     summary.factorizations += r.factorizations;
@@ -192,6 +193,8 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
               world.fragment_count());
   std::printf("contacts   %zu (%zu caught only by swept tests), penetration max: spheres %.3g m, render vertices %.3g m\n",
               summary.contacts, summary.swept, summary.sphere_penetration_max, summary.vertex_penetration_max);
+  std::printf("response  %.1f conjugate-gradient iterations/step inside the implicit step\n",
+              static_cast<double>(summary.response_iterations) * per_step / 1e3);
   std::printf("solver     %s, %.1f iterations/step, %ld factorizations, %zu steps hit the iteration cap, at most %d substeps\n",
               solver_name(world.settings()), static_cast<double>(summary.iterations) * per_step / 1e3,
               summary.factorizations, summary.unconverged, summary.substeps_max);
@@ -250,6 +253,7 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
     json.key("exposed_faces_new").value(static_cast<std::uint64_t>(summary.exposed));
     json.key("contacts").value(static_cast<std::uint64_t>(summary.contacts));
     json.key("contacts_swept_only").value(static_cast<std::uint64_t>(summary.swept));
+    json.key("contact_response_iterations").value(static_cast<std::uint64_t>(summary.response_iterations));
     json.key("sphere_penetration_max_m").value(summary.sphere_penetration_max);
     json.key("sphere_penetration_final_m").value(summary.sphere_penetration_final);
     json.key("vertex_penetration_max_m").value(summary.vertex_penetration_max);

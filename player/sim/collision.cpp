@@ -5,6 +5,8 @@
 #include <map>
 #include <tuple>
 
+#include "player/sim/contact_response.h"
+
 namespace fissure::sim {
 
 namespace {
@@ -13,7 +15,7 @@ namespace {
 /// on a static obstacle.
 struct Side {
   enum class Kind : std::uint8_t { Static, Embedded, Projectile } kind = Kind::Static;
-  Index owner = 0;  ///< body or projectile index
+  Index owner = 0;  ///< body or projectile index; for a static side, which obstacle (ContactKey)
   Index point = 0;  ///< embedded point index
   Vec3 anchor = Vec3::Zero();
 };
@@ -24,123 +26,54 @@ struct Contact {
   double reach = 0;        ///< a and b touch when normal · (a − b) = reach
   double gap = 0;          ///< normal · (a − b) − reach at the start of the step
   double restitution = 0, friction = 0;
-  double approach = 0;     ///< normal relative velocity when detected
-  double normal_impulse = 0;
-  Vec3 friction_impulse = Vec3::Zero();
 };
 
 ContactMaterial combine(const ContactMaterial& a, const ContactMaterial& b) {
   return {std::max(a.restitution, b.restitution), std::sqrt(a.friction * b.friction)};
 }
 
-class ContactSolver {
- public:
-  ContactSolver(std::span<CollisionBody> bodies, std::span<Projectile> projectiles)
-      : m_bodies(bodies), m_projectiles(projectiles) {}
+/// The required normal relative velocity of a contact (Box2D's speculative contacts):
+/// it may close its start-of-step gap during the step but not cross it, vₙ ≥ −gap / h.
+/// An overlap left from earlier steps is pushed out at kPushOut of its depth per step,
+/// but no faster than kMaxPushOutSpeed: the push-out is a real velocity that stays after
+/// the overlap is gone, so uncapped it would grow as 1/h (a 6 mm overlap at h = 1e-5 s
+/// threw fragments apart at 120 m/s). Box2D caps it the same way
+/// (contactPushMaxVelocity). Restitution applies only above a resting speed, so resting
+/// contact does not jitter.
+double contact_target(const Contact& c, double approach, const CollisionSettings& settings) {
+  constexpr double kPushOut = 0.2;
+  constexpr double kMaxPushOutSpeed = 1.0;  // [m/s]
+  const double h = settings.dt;
+  const double resting_speed = 2.0 * settings.gravity.norm() * h;
+  const double speculative = c.gap >= 0.0 ? -c.gap / h : std::min(-kPushOut * c.gap / h, kMaxPushOutSpeed);
+  if (approach < -resting_speed && approach < speculative) return std::max(speculative, -c.restitution * approach);
+  return speculative;
+}
 
-  /// (barycentric weight, summed mass) of the free nodes of an embedded point's tet.
-  [[nodiscard]] std::pair<double, double> free_share(const Side& s) const {
-    const CollisionBody& b = m_bodies[s.owner];
-    const TetIndex t = b.points->tet[s.point];
-    const Vec4& w = b.points->barycentric[s.point];
-    double weight = 0.0, mass = 0.0;
-    for (int i = 0; i < 4; ++i) {
-      const NodeIndex n = b.body->elasticity().tets()(i, t);
-      if (b.body->pinned(n)) continue;
-      weight += w[i];
-      mass += b.body->node_masses()[n];
+/// The response's view of a side: the embedded point's tet and weights.
+ContactSide response_side(const Side& s, std::span<const CollisionBody> bodies) {
+  switch (s.kind) {
+    case Side::Kind::Static: return {};
+    case Side::Kind::Projectile: return {ContactSide::Kind::Projectile, s.owner};
+    case Side::Kind::Embedded: {
+      const EmbeddedPoints& points = *bodies[s.owner].points;
+      return {ContactSide::Kind::Embedded, s.owner, points.tet[s.point], points.barycentric[s.point]};
     }
-    return {weight, mass};
   }
+  return {};
+}
 
-  [[nodiscard]] Vec3 velocity(const Side& s) const {
-    switch (s.kind) {
-      case Side::Kind::Static: return Vec3::Zero();
-      case Side::Kind::Projectile: return m_projectiles[s.owner].velocity;
-      case Side::Kind::Embedded: {
-        const CollisionBody& b = m_bodies[s.owner];
-        return embedded_position(b.body->velocities, b.body->elasticity().tets(), *b.points, s.point);
-      }
-    }
-    return Vec3::Zero();
-  }
-  /// How fast the point moves per unit impulse. An embedded point's impulse moves its
-  /// tet's free nodes rigidly, each by J / M (M = their summed mass), so the point moves
-  /// by β J / M with β its barycentric weight on those nodes.
-  [[nodiscard]] double inverse_mass(const Side& s) const {
-    switch (s.kind) {
-      case Side::Kind::Static: return 0.0;
-      case Side::Kind::Projectile: return 1.0 / m_projectiles[s.owner].mass;
-      case Side::Kind::Embedded: {
-        const auto [free_weight, free_mass] = free_share(s);
-        return free_mass > 0.0 ? free_weight / free_mass : 0.0;
-      }
-    }
-    return 0.0;
-  }
-  /// Applies the impulse `J` at the side.
-  void apply(const Side& s, const Vec3& J) {
-    if (s.kind == Side::Kind::Projectile) {
-      m_projectiles[s.owner].velocity += J / m_projectiles[s.owner].mass;
-    } else if (s.kind == Side::Kind::Embedded) {
-      CollisionBody& b = m_bodies[s.owner];
-      const TetIndex t = b.points->tet[s.point];
-      const double free_mass = free_share(s).second;
-      if (!(free_mass > 0.0)) return;
-      for (int i = 0; i < 4; ++i) {
-        const NodeIndex n = b.body->elasticity().tets()(i, t);
-        if (!b.body->pinned(n)) b.body->velocities.col(n) += J / free_mass;
-      }
+Vec3 side_velocity(const Side& s, std::span<const CollisionBody> bodies, std::span<const Projectile> projectiles) {
+  switch (s.kind) {
+    case Side::Kind::Static: return Vec3::Zero();
+    case Side::Kind::Projectile: return projectiles[s.owner].velocity;
+    case Side::Kind::Embedded: {
+      const CollisionBody& b = bodies[s.owner];
+      return embedded_position(b.body->velocities, b.body->elasticity().tets(), *b.points, s.point);
     }
   }
-
-  /// Speculative contacts: each contact may close its start-of-step gap during the step
-  /// but not cross it, i.e. the normal relative velocity must satisfy vₙ ≥ −gap / h.
-  /// Meeting that with impulses, and then moving from the start positions with the new
-  /// velocities, keeps positions and velocities consistent: a contact never teleports
-  /// nodes, which would store spurious elastic energy. An overlap left from earlier
-  /// steps is pushed out at kPushOut of its depth per step, but no faster than
-  /// kMaxPushOutSpeed: the push-out is a real velocity that stays after the overlap is
-  /// gone, so uncapped it would grow as 1/h (a 6 mm overlap at h = 1e-5 s threw
-  /// fragments apart at 120 m/s). Box2D caps it the same way (contactPushMaxVelocity).
-  void solve(std::vector<Contact>& contacts, const CollisionSettings& settings) {
-    constexpr double kPushOut = 0.2;
-    constexpr double kMaxPushOutSpeed = 1.0;  // [m/s]
-    const double h = settings.dt;
-    // Restitution only above a resting speed, so resting contact does not jitter.
-    const double resting_speed = 2.0 * settings.gravity.norm() * h;
-    for (Contact& c : contacts) c.approach = c.normal.dot(velocity(c.a) - velocity(c.b));
-    for (int sweep = 0; sweep < settings.iterations; ++sweep) {
-      for (Contact& c : contacts) {
-        const double w = inverse_mass(c.a) + inverse_mass(c.b);
-        if (w <= 0.0) continue;
-        const double speculative = c.gap >= 0.0 ? -c.gap / h : std::min(-kPushOut * c.gap / h, kMaxPushOutSpeed);
-        double target = speculative;
-        if (c.approach < -resting_speed && c.approach < speculative) {
-          target = std::max(speculative, -c.restitution * c.approach);
-        }
-        const Vec3 relative = velocity(c.a) - velocity(c.b);
-        const double accumulated = std::max(c.normal_impulse + (target - c.normal.dot(relative)) / w, 0.0);
-        const Vec3 normal_step = (accumulated - c.normal_impulse) * c.normal;
-        c.normal_impulse = accumulated;
-        apply(c.a, normal_step);
-        apply(c.b, -normal_step);
-        const Vec3 after = velocity(c.a) - velocity(c.b);
-        const Vec3 tangential = after - c.normal.dot(after) * c.normal;
-        Vec3 friction = c.friction_impulse - tangential / w;
-        const double limit = c.friction * c.normal_impulse;
-        if (friction.norm() > limit) friction *= limit / friction.norm();
-        apply(c.a, friction - c.friction_impulse);
-        apply(c.b, c.friction_impulse - friction);
-        c.friction_impulse = friction;
-      }
-    }
-  }
-
- private:
-  std::span<CollisionBody> m_bodies;
-  std::span<Projectile> m_projectiles;
-};
+  return Vec3::Zero();
+}
 
 struct SweptPoint {
   Vec3 start, end;
@@ -215,26 +148,29 @@ void static_contacts(const Side& a, const SweptPoint& p, const ContactMaterial& 
     if (height < p.radius) {
       const ContactMaterial m = combine(material, g.material);
       const double gap = g.normal.dot(p.start) - g.offset - p.radius;
-      out.push_back({a, Side{.anchor = p.end - height * g.normal}, g.normal, p.radius, gap, m.restitution, m.friction});
+      out.push_back({a, Side{.owner = 0, .anchor = p.end - height * g.normal}, g.normal, p.radius, gap, m.restitution, m.friction});
     }
   }
+  Index obstacle = 1;  // 0 is the ground
   for (const Box& box : environment.boxes) {
+    ++obstacle;
     if (const auto hit = box_contact(box, p)) {
       const ContactMaterial m = combine(material, box.material);
       const double gap = hit->first.dot(p.start - hit->second) - p.radius;
-      out.push_back({a, Side{.anchor = hit->second}, hit->first, p.radius, gap, m.restitution, m.friction});
+      out.push_back({a, Side{.owner = obstacle - 1, .anchor = hit->second}, hit->first, p.radius, gap, m.restitution, m.friction});
       const Vec3 outside = p.end.cwiseMax(box.min).cwiseMin(box.max) - p.end;
       if (outside.norm() >= p.radius) ++counts.swept;
     }
   }
   for (const Ball& ball : environment.balls) {
+    ++obstacle;
     const auto s = time_of_impact(p.start, p.end, ball.center, ball.center, p.radius + ball.radius);
     if (!s) continue;
     Vec3 normal = p.start + *s * (p.end - p.start) - ball.center;
     normal = normal.norm() > 0.0 ? Vec3(normal.normalized()) : Vec3(Vec3::UnitZ());
     const ContactMaterial m = combine(material, ball.material);
     const Vec3 anchor = ball.center + ball.radius * normal;
-    out.push_back({a, Side{.anchor = anchor}, normal, p.radius, normal.dot(p.start - anchor) - p.radius, m.restitution,
+    out.push_back({a, Side{.owner = obstacle - 1, .anchor = anchor}, normal, p.radius, normal.dot(p.start - anchor) - p.radius, m.restitution,
                    m.friction});
     if ((p.end - ball.center).norm() >= p.radius + ball.radius) ++counts.swept;
   }
@@ -454,13 +390,34 @@ ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environm
     }
   }
   counts.contacts = contacts.size();
-  ContactSolver(bodies, projectiles).solve(contacts, settings);
-  // Move from the start of the step with the corrected velocities.
-  for (CollisionBody& b : bodies) {
-    for (Index n = 0; n < b.body->node_count(); ++n) {
-      if (!b.body->pinned(n)) b.body->positions.col(n) = b.start_positions->col(n) + h * b.body->velocities.col(n);
+  std::vector<ContactConstraint> constraints;
+  constraints.reserve(contacts.size());
+  const auto key = [](const Contact& c) {
+    return ContactKey{static_cast<std::uint8_t>(c.a.kind), static_cast<std::uint8_t>(c.b.kind), c.a.owner, c.a.point,
+                      c.b.owner, c.b.point};
+  };
+  for (const Contact& c : contacts) {
+    const double approach = c.normal.dot(side_velocity(c.a, bodies, projectiles) - side_velocity(c.b, bodies, projectiles));
+    double warm_start = 0.0;
+    if (settings.impulses != nullptr) {
+      const auto found = settings.impulses->find(key(c));
+      if (found != settings.impulses->end()) warm_start = found->second;
+    }
+    constraints.push_back({response_side(c.a, bodies), response_side(c.b, bodies), c.normal,
+                           contact_target(c, approach, settings), c.friction, warm_start});
+  }
+  ContactResponseSettings response;
+  response.dt = h;
+  response.iterations = settings.iterations;
+  const ContactResponseReport outcome = respond_to_contacts(bodies, projectiles, constraints, response);
+  counts.response_iterations = outcome.cg_iterations;
+  if (settings.impulses != nullptr) {
+    settings.impulses->clear();
+    for (std::size_t k = 0; k < contacts.size(); ++k) {
+      if (constraints[k].impulse > 0.0) settings.impulses->emplace(key(contacts[k]), constraints[k].impulse);
     }
   }
+  // The bodies moved with their corrected velocities; projectiles move likewise.
   for (std::size_t j = 0; j < projectiles.size(); ++j) {
     if (projectiles[j].launched) projectiles[j].position = projectile_sweep[j].start + h * projectiles[j].velocity;
   }

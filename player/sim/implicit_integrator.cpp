@@ -97,6 +97,7 @@ void ImplicitIntegrator::pin(std::span<const NodeIndex> nodes) {
     velocities.col(node).setZero();
   }
   m_pattern_dirty = true;
+  m_system_form = SystemForm::None;
 }
 
 NodeIndex ImplicitIntegrator::split_node(NodeIndex node, std::span<const std::pair<TetIndex, int>> slots) {
@@ -116,6 +117,7 @@ NodeIndex ImplicitIntegrator::split_node(NodeIndex node, std::span<const std::pa
   }
   lump_masses();
   m_pattern_dirty = true;
+  m_system_form = SystemForm::None;
   return added;
 }
 
@@ -232,6 +234,7 @@ SolveStatus ImplicitIntegrator::step(const StepSettings& settings) {
 void ImplicitIntegrator::evaluate(const StepSettings& settings, bool with_stress) {
   const auto start = Clock::now();
   m_elasticity.evaluate(positions, settings.stiffness, with_stress, m_elements);
+  m_system_form = SystemForm::None;
   m_phase_times.forces = seconds_since(start);
 }
 
@@ -294,34 +297,30 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
     const bool single = lagged && m_cholesky.factor_nonzeros() >= kSinglePrecisionMinFactorEntries;
     return m_cholesky.factorize(m_matrix, single ? FactorPrecision::Single : FactorPrecision::Double);
   };
+  m_system_form = SystemForm::None;
+  m_system_k_scale = k_scale;
+  m_system_m_scale = m_scale;
   if (s.solver == LinearSolver::Direct) {
     if (!refactor()) return SolveStatus::NotPositiveDefinite;
     m_cholesky.solve(b, dv);
     m_iterations = 1;
+    m_system_form = SystemForm::Assembled;
+    m_system_inverse = SystemInverse::Factor;
   } else {
     for (Index c = 0; c < free_count; ++c) dv.segment<3>(3 * c) = m_last_dv.col(m_free_nodes[c]);
-    ApplyPreconditioner precondition;
-    Eigen::VectorXd inverse_diagonal;
-    ConjugateGradientResult cg;
     if (lagged) {
       if (refactor_lagged && !refactor()) return SolveStatus::NotPositiveDefinite;
       update_node_rotations();
-      precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
-        // z = R A_f⁻¹ Rᵀ r.
-        Eigen::VectorXd rotated(r.size());
-        for (Index c = 0; c < free_count; ++c) {
-          rotated.segment<3>(3 * c) = m_node_rotation[c].transpose() * r.segment<3>(3 * c);
-        }
-        m_cholesky.solve(rotated, z);
-        for (Index c = 0; c < free_count; ++c) z.segment<3>(3 * c) = m_node_rotation[c] * z.segment<3>(3 * c).eval();
-      };
-      const auto product = [&](const Eigen::VectorXd& x, Eigen::VectorXd& y) { system_product(k_scale, m_scale, x, y); };
-      cg = conjugate_gradient(product, b, dv, precondition, s.tolerance, s.max_iterations);
+      m_system_form = SystemForm::MatrixFree;
+      m_system_inverse = SystemInverse::RotatedFactor;
     } else {
-      inverse_diagonal = m_matrix.diagonal().cwiseInverse();
-      precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { z = inverse_diagonal.cwiseProduct(r); };
-      cg = conjugate_gradient(m_matrix, b, dv, precondition, s.tolerance, s.max_iterations);
+      m_inverse_diagonal = m_matrix.diagonal().cwiseInverse();
+      m_system_form = SystemForm::Assembled;
+      m_system_inverse = SystemInverse::Jacobi;
     }
+    const auto product = [&](const Eigen::VectorXd& x, Eigen::VectorXd& y) { multiply_system(x, y); };
+    const auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { precondition_system(r, z); };
+    const ConjugateGradientResult cg = conjugate_gradient(product, b, dv, precondition, s.tolerance, s.max_iterations);
     m_iterations = cg.iterations;
     if (!cg.converged) status = SolveStatus::MaxIterations;
   }
@@ -336,9 +335,73 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
   return status;
 }
 
+Mat3 ImplicitIntegrator::stiffness_block(Index block) const {
+  const bool warped = m_elements.model == StiffnessModel::Warped;
+  Mat3 K = Mat3::Zero();
+  for (Index k = m_block_term_start[block]; k < m_block_term_start[block + 1]; ++k) {
+    const BlockTerm& term = m_block_terms[k];
+    K += warped ? m_elasticity.warped_block(term.tet, m_elements.rotated_gradients[term.tet], term.i, term.j)
+                : Mat3(m_elements.stiffness[term.tet].block<3, 3>(3 * term.i, 3 * term.j));
+  }
+  return K;
+}
+
+Mat3 ImplicitIntegrator::system_diagonal_block(NodeIndex node) const {
+  FISSURE_ASSERT(m_system_form != SystemForm::None && m_dof[node] != kInvalidIndex);
+  const Index c = m_dof[node] / 3;
+  for (Index block = m_block_column_start[c]; block < m_block_column_start[c + 1]; ++block) {
+    if (!m_block_diagonal[block]) continue;
+    Mat3 A = -m_system_k_scale * stiffness_block(block);
+    A.diagonal().array() += m_system_m_scale * m_mass[node];
+    return A;
+  }
+  return m_system_m_scale * m_mass[node] * Mat3::Identity();
+}
+
+void ImplicitIntegrator::multiply_system(const Eigen::VectorXd& x, Eigen::VectorXd& y) {
+  FISSURE_ASSERT(m_system_form != SystemForm::None);
+  if (m_system_form == SystemForm::Assembled) {
+    symmetric_product(m_matrix, x, y);
+  } else {
+    system_product(m_system_k_scale, m_system_m_scale, x, y);
+  }
+}
+
+void ImplicitIntegrator::precondition_system(const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+  FISSURE_ASSERT(m_system_form != SystemForm::None);
+  switch (m_system_inverse) {
+    case SystemInverse::Factor: m_cholesky.solve(r, z); return;
+    case SystemInverse::Jacobi: z = m_inverse_diagonal.cwiseProduct(r); return;
+    case SystemInverse::RotatedFactor: {
+      // z = R A_f⁻¹ Rᵀ r.
+      const auto free_count = static_cast<Index>(m_free_nodes.size());
+      Eigen::VectorXd rotated(r.size());
+      for (Index c = 0; c < free_count; ++c) {
+        rotated.segment<3>(3 * c) = m_node_rotation[c].transpose() * r.segment<3>(3 * c);
+      }
+      m_cholesky.solve(rotated, z);
+      for (Index c = 0; c < free_count; ++c) z.segment<3>(3 * c) = m_node_rotation[c] * z.segment<3>(3 * c).eval();
+      return;
+    }
+    case SystemInverse::None: break;
+  }
+  z = r;
+}
+
+void ImplicitIntegrator::correct_velocities(const Eigen::VectorXd& delta, double h) {
+  FISSURE_ASSERT(delta.size() == system_size());
+  const auto free_count = static_cast<Index>(m_free_nodes.size());
+  for (Index c = 0; c < free_count; ++c) {
+    const NodeIndex n = m_free_nodes[c];
+    const Vec3 d = delta.segment<3>(3 * c);
+    m_last_dv.col(n) += d;
+    velocities.col(n) += d;
+    positions.col(n) += h * d;
+  }
+}
+
 void ImplicitIntegrator::assemble_matrix(double k_scale, double m_scale) {
   double* values = m_matrix.valuePtr();
-  const bool warped = m_elements.model == StiffnessModel::Warped;
   const auto free_count = static_cast<Index>(m_free_nodes.size());
   tbb::parallel_for(tbb::blocked_range<Index>(0, free_count, 64), [&](const tbb::blocked_range<Index>& range) {
     for (Index c = range.begin(); c != range.end(); ++c) {
@@ -347,13 +410,7 @@ void ImplicitIntegrator::assemble_matrix(double k_scale, double m_scale) {
       // the same value, and each block sums its terms in tet order.
       const Index column_length = 3 * (m_block_column_start[c + 1] - m_block_column_start[c]);
       for (Index block = m_block_column_start[c]; block < m_block_column_start[c + 1]; ++block) {
-        Mat3 K = Mat3::Zero();
-        for (Index k = m_block_term_start[block]; k < m_block_term_start[block + 1]; ++k) {
-          const BlockTerm& term = m_block_terms[k];
-          K += warped ? m_elasticity.warped_block(term.tet, m_elements.rotated_gradients[term.tet], term.i, term.j)
-                      : Mat3(m_elements.stiffness[term.tet].block<3, 3>(3 * term.i, 3 * term.j));
-        }
-        Mat3 A = -k_scale * K;
+        Mat3 A = -k_scale * stiffness_block(block);
         if (m_block_diagonal[block]) A.diagonal().array() += m_scale * m_mass[n];
         double* out = values + m_block_value[block];
         for (int col = 0; col < 3; ++col) {

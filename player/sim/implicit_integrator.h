@@ -108,6 +108,26 @@ class ImplicitIntegrator {
   /// leave it unchanged.
   SolveStatus solve(const StepSettings& settings);
 
+  /// The last solve's system A, for a contact response that stays inside the implicit
+  /// step (contact_response.h): a velocity correction δ answering impulses f must solve
+  /// A δ = f, so the body responds to a contact as a whole, elastically, within the step.
+  /// Valid from a solve() until the next evaluate(), split or pin.
+  [[nodiscard]] Eigen::Index system_size() const { return 3 * static_cast<Eigen::Index>(m_free_nodes.size()); }
+  /// First of a free node's three rows in the system; kInvalidIndex for a pinned node.
+  [[nodiscard]] Index system_row(NodeIndex node) const { return m_dof[node]; }
+  /// A's mass term is this times M (1 + h α with Rayleigh mass damping).
+  [[nodiscard]] double system_mass_scale() const { return m_system_m_scale; }
+  [[nodiscard]] bool has_pinned_nodes() const { return m_free_nodes.size() != m_pinned.size(); }
+  /// A's 3×3 diagonal block of a free node.
+  [[nodiscard]] Mat3 system_diagonal_block(NodeIndex node) const;
+  /// y = A x.
+  void multiply_system(const Eigen::VectorXd& x, Eigen::VectorXd& y);
+  /// z ≈ A⁻¹ r with the last solve's preconditioner (the exact factor for the direct solver).
+  void precondition_system(const Eigen::VectorXd& r, Eigen::VectorXd& z);
+  /// v += δ and x += h δ on the free nodes (δ indexed by system rows); the next solve
+  /// starts from the corrected Δv.
+  void correct_velocities(const Eigen::VectorXd& delta, double h);
+
   [[nodiscard]] int last_iterations() const { return m_iterations; }
   /// Numeric Cholesky factorizations so far (direct solves, and LaggedCholesky refreshes).
   [[nodiscard]] int factorizations() const { return m_factorizations; }
@@ -134,6 +154,8 @@ class ImplicitIntegrator {
   void system_product(double k_scale, double m_scale, const Eigen::VectorXd& x, Eigen::VectorXd& y);
   /// m_node_rotation from the tets' rotations now and at the last factorization.
   void update_node_rotations();
+  /// Block `block` of −K from the last evaluate(), summed over its terms in tet order.
+  [[nodiscard]] Mat3 stiffness_block(Index block) const;
   void lump_masses();
 
   CorotatedElasticity m_elasticity;
@@ -177,6 +199,11 @@ class ImplicitIntegrator {
   std::vector<Mat3> m_tet_rotation_change;   ///< per tet: Q_t Q_t,fᵀ (scratch)
   std::vector<Mat34> m_tet_product;          ///< per tet: K_t x_t (system_product's scratch)
   Matrix3Xd m_last_dv;                       ///< per node: last Δv, the warm start for conjugate gradients
+  /// What the last solve's system was, for multiply_system and precondition_system.
+  enum class SystemForm : std::uint8_t { None, Assembled, MatrixFree } m_system_form = SystemForm::None;
+  enum class SystemInverse : std::uint8_t { None, Factor, RotatedFactor, Jacobi } m_system_inverse = SystemInverse::None;
+  double m_system_k_scale = 0.0, m_system_m_scale = 0.0;
+  Eigen::VectorXd m_inverse_diagonal;        ///< Jacobi's preconditioner
   int m_iterations = 0;
   ElementBuffers m_elements;
   PhaseTimes m_phase_times;

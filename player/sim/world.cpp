@@ -157,10 +157,12 @@ void World::advance(double dt, StepReport& report, int depth) {
     cs.gravity = m_settings.step.gravity;
     cs.self_collision = m_settings.self_collision;
     cs.iterations = m_settings.contact_iterations;
+    cs.impulses = &m_contact_impulses;
     const ContactCounts counts = resolve_collisions(collision_bodies, m_environment, m_projectiles, m_time, cs);
     report.contacts.contacts += counts.contacts;
     report.contacts.swept += counts.swept;
     report.contacts.pairs_tested += counts.pairs_tested;
+    report.contacts.response_iterations += counts.response_iterations;
     report.collisions += seconds_since(start);
   } else {
     // Projectiles still fly when nothing collides.

@@ -104,6 +104,7 @@ class World {
   WorldSettings m_settings;
   double m_time = 0;
   std::vector<Matrix3Xd> m_start_positions;
+  ContactImpulses m_contact_impulses;  ///< the last step's, to warm-start the next
 };
 
 }  // namespace fissure::sim

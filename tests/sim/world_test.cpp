@@ -186,11 +186,6 @@ struct StabilityScene {
   }
 };
 
-/// Known runaway (reported, not fixed): a stiff sliver plate on the ground at dt = 0.1.
-bool known_runaway(const StabilityCase& c) {
-  return c.scenario == Scenario::Sliver && c.youngs > 1e4 && c.dt > 1e-3;
-}
-
 class Stability : public ::testing::TestWithParam<StabilityCase> {};
 
 TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
@@ -215,41 +210,48 @@ TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
   }
   const double available = initial - std::min(0.0, lowest_potential);  // what the start and the fall provide
   const double highest = std::max(first_half, second_half);
-  std::printf("%-36s peak %9.3g J of %9.3g J available (×%.3g), second half / first half %.3g%s\n",
-              case_name({c, 0}).c_str(), highest, available, highest / available, second_half / first_half,
-              known_runaway(c) ? "  KNOWN RUNAWAY" : "");
+  std::printf("%-36s peak %9.3g J of %9.3g J available (×%.3g), second half / first half %.3g\n",
+              case_name({c, 0}).c_str(), highest, available, highest / available, second_half / first_half);
   if (c.dt < 1e-3) {
     // Small steps: never more than the energy there was (+10 % and 1 mJ of slack).
     // Measured: ×1.000 in every case. (×5.4 before the default spheres were shrunk to
     // fit inside their tets: neighbours' spheres overlapped, and fragments were pushed apart.)
     EXPECT_LE(highest, 1.1 * available + 1e-3);
-  } else if (!known_runaway(c)) {
+  } else {
     // dt = 0.1 is not energy-bounded by the start: a step extrapolates a spinning body's
     // nodes linearly, stretching it by ~(hω)²/2 (with E = 1e11 and hω = 0.3, ~1e6 J
-    // of strain in the first step, both stiffness models; see exact_stiffness_test), and a
-    // contact's impulse moves only its own tet's nodes, which a stiff body stores as
-    // strain. Measured worst peak: ×3.2e9 (the 300 m/s projectile, E = 1e11, ν = 0.499).
+    // of strain in the first step, both stiffness models; see exact_stiffness_test).
+    // Measured worst peak: ×2e7 (the 300 m/s projectile, E = 1e11, ν = 0.499; ×3.2e9
+    // while contacts acted after the solve, when the stiff slivers also ran away).
     // What must hold is that it does not run away: the second half of the run peaks at
-    // most 10× the first, plus 1 J (measured: ≤ 0.9×).
+    // most 10× the first, plus 1 J (measured: ≤ 6.5×, the stiff incompressible sliver).
     EXPECT_LE(second_half, 10.0 * first_half + 1.0);
   }
 }
 
-// The runaway excluded above, as a reproduction: a 1 mm plate, E = 1e11, tumbling onto
-// the ground at dt = 0.1, toughness 1 N: from 0.1 J the energy is 1.7e9 J after one step
-// and 9e13 J after 60 (×4 per 10 steps). Contact impulses act after the implicit solve,
-// on one tet's nodes at a time; in a sliver that is an enormous strain, which shatters the
-// plate and which the next solve turns into speed. Without fracture and self-collision
-// it stays between 1e9 and 2e11 J: bounded, but 1e10× the start.
-TEST(Stability, DISABLED_AStiffSliverOnTheGroundAtLargeStepsDoesNotRunAway) {
+// The runaway the grid's dt = 0.1 rows once had to allow: a 1 mm plate, E = 1e11,
+// tumbling onto the ground at dt = 0.1, toughness 1 N. When contact impulses acted after
+// the implicit solve, on one tet's nodes at a time, each was an enormous strain in a
+// sliver: from 0.1 J the energy was 1.7e9 J after one step and 9e13 J after 60. Inside
+// the implicit step (contact_response.h) the plate answers as a whole.
+TEST(Stability, AStiffSliverOnTheGroundAtLargeStepsDoesNotRunAway) {
   StabilityScene scene({0.0, 1e11, 0.1, Scenario::Sliver});
   const double initial = scene.energy();
-  double highest = initial;
-  for (int i = 0; i < 60; ++i) {
+  double first_half = initial, second_half = 0.0, last = initial;
+  for (int i = 0; i < 120; ++i) {
     scene.world->step();
-    highest = std::max(highest, scene.energy());
+    last = scene.energy();
+    (i < 60 ? first_half : second_half) = std::max(i < 60 ? first_half : second_half, last);
   }
-  EXPECT_LE(highest, 10.0 * initial + 1.0);
+  std::printf("stiff sliver at dt = 0.1: %.3g J → peak %.3g J in the first 6 s, %.3g J in the next 6 s, %.3g J at the end\n",
+              initial, first_half, second_half, last);
+  // As for the grid's dt = 0.1 rows, the start does not bound the energy (a tumbling
+  // step stretches the plate along its linear extrapolation), so what must hold is that
+  // it does not run away. Measured: 0.1 J → 23–171 J peak in the first half, 4.5–44 J
+  // in the second (inner tolerances 1e-6 and 1e-3, κ caps 1 and 16), against 9e13 J
+  // after 60 steps and still growing ×4 per 10 steps before.
+  EXPECT_LE(second_half, first_half);
+  EXPECT_LE(first_half, 1e4 * initial);
 }
 
 std::vector<StabilityCase> stability_cases() {

@@ -1,0 +1,80 @@
+#pragma once
+/// Contact response inside the implicit step.
+///
+/// After the implicit solve, each body's velocities v* solve A Δv = b. Contacts found on
+/// that motion ask for normal relative velocities n · (v_a − v_b) ≥ target. The
+/// response finds the velocity correction δ that a backward-Euler step with contact
+/// impulses would have made:
+///   minimise ½ δᵀ 𝒜 δ  subject to  c_k · (v* + δ) ≥ target_k,
+/// with 𝒜 = diag(each body's system A, each projectile's mass). Its solution is
+/// 𝒜 δ = Σ λ_k c_k with λ_k ≥ 0: a body answers an impulse as the implicit step would,
+/// as a whole and elastically, not by moving one tet (the response that stored ×9 the
+/// energy of the ball hitting the bunny as strain, see BENCHMARKS.md). Because the
+/// correction minimises a positive-definite form subject to the targets, an inelastic
+/// contact (target ≤ 0) does negative work and never adds energy; only restitution and
+/// the capped push-out of old overlaps ask for a separating velocity.
+///
+/// Solved by an augmented Lagrangian (Nocedal & Wright 17.4): each outer iteration
+/// solves (𝒜 + Σ_active κ_k c_k c_kᵀ + friction) δ = Σ_active (λ_k + κ_k r_k) c_k by
+/// conjugate gradients preconditioned with each body's own preconditioner, then updates
+/// λ_k ← max(0, λ_k + κ_k (r_k − c_k · δ)). κ_k is about the point's effective mass in
+/// the system, so the preconditioned system stays well conditioned while λ carries the
+/// exact force. λ starts from the last step's impulse of the same contact (resting
+/// contacts carry nearly the same impulse every step).
+///
+/// Friction is Coulomb, lagged (as in IPC, Li et al. 2020): a tangential damping
+/// η_k = μ λ_k / max(|v_t|, ε) from the previous outer iteration, so its force is
+/// μ λ_k while sliding and holds the point while sticking; damping never adds energy.
+///
+/// Momentum: the conjugate-gradient residual is a small unbalanced force, so at the end
+/// each body free of pins is shifted rigidly (no elastic work) to gain exactly the
+/// impulses it received, and each projectile gets exactly its own: the momentum the
+/// contacts exchange sums to zero to rounding.
+
+#include <span>
+
+#include "player/sim/collision.h"
+
+namespace fissure::sim {
+
+/// One side of a contact: a point embedded in a body's tet, a projectile, or nothing
+/// that moves (a static obstacle).
+struct ContactSide {
+  enum class Kind : std::uint8_t { Static, Embedded, Projectile } kind = Kind::Static;
+  Index owner = 0;             ///< body or projectile index
+  TetIndex tet = 0;            ///< Embedded: the tet holding the point
+  Vec4 weight = Vec4::Zero();  ///< Embedded: the point's barycentric coordinates
+};
+
+struct ContactConstraint {
+  ContactSide a, b;
+  Vec3 normal = Vec3::UnitZ();  ///< unit, from b towards a
+  double target = 0;            ///< the step must end with n · (v_a − v_b) ≥ target [m/s]
+  double friction = 0;          ///< Coulomb μ
+  double impulse = 0;           ///< in: a guess (the last step's); out: the normal impulse it carried [N s]
+};
+
+struct ContactResponseSettings {
+  double dt = 1.0 / 240.0;
+  int iterations = 8;            ///< augmented-Lagrangian iterations at most
+  /// Conjugate gradients' relative residual. Loose on purpose: the outer iterations
+  /// correct what an inner solve leaves, and the momentum each body gains is made exact
+  /// at the end anyway. On the bunny scene 1e-6 took 2.2× the time of 1e-3 for the same
+  /// energy and penetration.
+  double tolerance = 1e-3;
+  int max_cg_iterations = 500;   ///< per outer iteration
+};
+
+struct ContactResponseReport {
+  int outer_iterations = 0;
+  int cg_iterations = 0;           ///< summed over outer iterations
+  double largest_violation = 0.0;  ///< max_k (target_k − n · v_rel) after the response [m/s]
+};
+
+/// Corrects the velocities of `bodies` and `projectiles` so the contacts hold, and moves
+/// the bodies' nodes by h δ with them (projectile positions are the caller's). Needs each
+/// body's last solve() (ImplicitIntegrator::multiply_system).
+ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::span<Projectile> projectiles,
+                                          std::span<ContactConstraint> contacts, const ContactResponseSettings& settings);
+
+}  // namespace fissure::sim
