@@ -85,7 +85,11 @@ class JointSystem {
     }
     // Rows in a fixed order (bodies, then projectiles), whatever the contact order.
     for (std::size_t bi = 0; bi < bodies.size(); ++bi) {
-      if (m_body_offset[bi] < 0) continue;
+      // A body pinned whole cannot move: it stays out, like a static obstacle.
+      if (m_body_offset[bi] < 0 || bodies[bi].body->system_size() == 0) {
+        m_body_offset[bi] = -1;
+        continue;
+      }
       m_body_offset[bi] = m_size;
       m_size += bodies[bi].body->system_size();
     }
@@ -214,7 +218,7 @@ class JointSystem {
       row.entries[row.count++] = {m_projectile_offset[s.owner], sign};
       return 1.0 / m_projectiles[s.owner].mass;
     }
-    if (s.kind != ContactSide::Kind::Embedded) return 0.0;
+    if (s.kind != ContactSide::Kind::Embedded || m_body_offset[s.owner] < 0) return 0.0;
     const ImplicitIntegrator& body = *m_bodies[s.owner].body;
     double inverse_mass = 0.0;
     for (int i = 0; i < 4; ++i) {

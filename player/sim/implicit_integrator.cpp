@@ -241,6 +241,12 @@ void ImplicitIntegrator::evaluate(const StepSettings& settings, bool with_stress
 SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
   auto phase_start = Clock::now();
   if (m_pattern_dirty) build_pattern();
+  if (m_free_nodes.empty()) {
+    // Pinned whole: nothing moves (a factorization of the empty system would fail).
+    m_iterations = 0;
+    m_phase_times.assembly = m_phase_times.solve = 0.0;
+    return SolveStatus::Converged;
+  }
   const double h = s.dt;
   const double alpha = m_material.rayleigh_mass, beta = m_material.rayleigh_stiffness;
   // A = M − h D − h² K with D = −αM + βK:  A = (1 + hα) M − (hβ + h²) K.

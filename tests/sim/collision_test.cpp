@@ -254,6 +254,25 @@ TEST(Collision, AnInelasticContactNeverAddsKineticEnergy) {
   EXPECT_GE(body.positions(2, 0), -1e-3 * settings.dt);  // the corner stops at the ground (to the tolerance)
 }
 
+TEST(Collision, AProjectileBouncesOffABodyPinnedWhole) {
+  // Every node pinned: the body has no unknowns in the contact response, and acts as a
+  // static obstacle of its own shape.
+  const TetMesh cage = testing::grid_cage(Vec3(0, -0.1, -0.1), Vec3(0.2, 0.1, 0.1), 2, 2, 2);
+  BodyDescription wall = describe("wall", cage, Material{});
+  for (NodeIndex n = 0; n < cage.node_count(); ++n) wall.pinned.push_back(n);
+  const Projectile projectile{.position = Vec3(-0.2, 0.0, 0.0), .velocity = Vec3(10, 0, 0), .radius = 0.05,
+                              .mass = 0.1, .material = {.restitution = 0.5, .friction = 0}};
+  WorldSettings settings;
+  settings.step.gravity.setZero();
+  World world({wall}, {}, {projectile}, settings);
+  for (int i = 0; i < 20; ++i) ASSERT_NO_THROW(world.step()) << "step " << i;
+  const Projectile& p = world.projectiles()[0];
+  EXPECT_LT(p.velocity.x(), 0.0);    // it bounced
+  EXPECT_LE(p.velocity.norm(), 10.0);
+  EXPECT_LT(p.position.x(), 0.0);    // from the wall's face at x = 0
+  EXPECT_EQ(world.bodies()[0].solver->positions, cage.rest_positions);
+}
+
 /// A box body hit by a projectile, with no gravity and no ground.
 TEST(Collision, AFastProjectileHitsABodyAndMomentumIsConserved) {
   const TetMesh cage = testing::grid_cage(Vec3(0, -0.1, -0.1), Vec3(0.2, 0.1, 0.1), 2, 2, 2);
