@@ -123,13 +123,7 @@ class JointSystem {
   /// y = (𝒜 + Σ_active κ n nᵀ ⊗ G + Σ η Gᵀ T G) x.
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) {
     y.resize(x.size());
-    for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
-      if (m_body_offset[bi] < 0) continue;
-      const Eigen::Index n = m_bodies[bi].body->system_size();
-      m_in = x.segment(m_body_offset[bi], n);
-      m_bodies[bi].body->multiply_system(m_in, m_out);
-      y.segment(m_body_offset[bi], n) = m_out;
-    }
+    for_each_body_block(x, y, &ImplicitIntegrator::multiply_system);
     for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
       if (m_projectile_offset[j] >= 0) {
         y.segment<3>(m_projectile_offset[j]) = m_projectiles[j].mass * x.segment<3>(m_projectile_offset[j]);
@@ -147,13 +141,7 @@ class JointSystem {
   /// The bodies' own preconditioners; each projectile's 3×3 block exactly.
   void precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) {
     z.resize(r.size());
-    for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
-      if (m_body_offset[bi] < 0) continue;
-      const Eigen::Index n = m_bodies[bi].body->system_size();
-      m_in = r.segment(m_body_offset[bi], n);
-      m_bodies[bi].body->precondition_system(m_in, m_out);
-      z.segment(m_body_offset[bi], n) = m_out;
-    }
+    for_each_body_block(r, z, &ImplicitIntegrator::precondition_system);
     for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
       if (m_projectile_offset[j] >= 0) {
         z.segment<3>(m_projectile_offset[j]) = m_projectile_block[j].solve(r.segment<3>(m_projectile_offset[j]));
@@ -212,6 +200,18 @@ class JointSystem {
   }
 
  private:
+  /// out = op(in) on each body's block: the body's own system product or preconditioner.
+  void for_each_body_block(const Eigen::VectorXd& in, Eigen::VectorXd& out,
+                           void (ImplicitIntegrator::*op)(const Eigen::VectorXd&, Eigen::VectorXd&)) {
+    for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+      if (m_body_offset[bi] < 0) continue;
+      const Eigen::Index n = m_bodies[bi].body->system_size();
+      m_in = in.segment(m_body_offset[bi], n);
+      (m_bodies[bi].body->*op)(m_in, m_out);
+      out.segment(m_body_offset[bi], n) = m_out;
+    }
+  }
+
   /// Adds a side's entries to the row; returns its lumped inverse mass along any direction.
   double add_side(const ContactSide& s, double sign, Row& row) const {
     if (s.kind == ContactSide::Kind::Projectile) {
