@@ -1,11 +1,14 @@
 #include "player/sim/corotated_elasticity.h"
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <Eigen/SVD>
 #include <cmath>
+#include <limits>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "common/assert.h"
 #include "common/error.h"
 #include "common/tet_mesh.h"
 
@@ -103,8 +106,92 @@ Mat3 polar_rotation(const Mat3& F) {
       det = cofactors();
     }
   }
+  // Eigen's SVD of a non-finite matrix returns arbitrary (not even repeatable) values:
+  // pass the NaN on instead, for the step's non-finite check to report.
+  if (!F.allFinite()) return Mat3::Constant(std::numeric_limits<double>::quiet_NaN());
   const SignedSvd svd = signed_svd(F);
   return svd.U * svd.V.transpose();
+}
+
+namespace {
+
+/// The batch's Newton iterations on lanes (q[k][lane]: entry k of lane's matrix,
+/// column-major). Returns, per lane, whether it converged; built for AVX2/FMA and for
+/// baseline x86-64 and chosen at load time (the same machine always takes the same one).
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void polar_newton_lanes(
+    double (&q)[9][kPolarBatch], bool (&converged)[kPolarBatch]) {
+  constexpr int L = kPolarBatch;
+  double cofactor[9][L], det[L], change[L], a[L], b[L];
+  bool usable[L];
+  const auto cofactors = [&]() {
+    for (int l = 0; l < L; ++l) {
+      // Columns q₀ = q[0..2], q₁ = q[3..5], q₂ = q[6..8]; cofactor columns q₁×q₂, q₂×q₀, q₀×q₁.
+      cofactor[0][l] = q[4][l] * q[8][l] - q[5][l] * q[7][l];
+      cofactor[1][l] = q[5][l] * q[6][l] - q[3][l] * q[8][l];
+      cofactor[2][l] = q[3][l] * q[7][l] - q[4][l] * q[6][l];
+      cofactor[3][l] = q[7][l] * q[2][l] - q[8][l] * q[1][l];
+      cofactor[4][l] = q[8][l] * q[0][l] - q[6][l] * q[2][l];
+      cofactor[5][l] = q[6][l] * q[1][l] - q[7][l] * q[0][l];
+      cofactor[6][l] = q[1][l] * q[5][l] - q[2][l] * q[4][l];
+      cofactor[7][l] = q[2][l] * q[3][l] - q[0][l] * q[5][l];
+      cofactor[8][l] = q[0][l] * q[4][l] - q[1][l] * q[3][l];
+      det[l] = q[0][l] * cofactor[0][l] + q[1][l] * cofactor[1][l] + q[2][l] * cofactor[2][l];
+    }
+  };
+  cofactors();
+  for (int l = 0; l < L; ++l) {
+    double mean_square = 0.0;
+    for (int k = 0; k < 9; ++k) mean_square += q[k][l] * q[k][l];
+    mean_square /= 3.0;
+    usable[l] = std::isfinite(det[l]) && det[l] > kNewtonMinRelativeDeterminant * mean_square * std::sqrt(mean_square);
+    converged[l] = false;
+  }
+  for (int iteration = 0; iteration < kNewtonMaxIterations; ++iteration) {
+    for (int l = 0; l < L; ++l) {
+      // A lane Newton does not apply to iterates on the identity (cheap, finite); its
+      // result is replaced by the SVD's.
+      if (!usable[l]) det[l] = 1.0;
+      const double gamma = newton_scaling(det[l]);
+      a[l] = 0.5 * gamma;
+      b[l] = 0.5 / (gamma * det[l]);
+      change[l] = 0.0;
+    }
+    for (int k = 0; k < 9; ++k) {
+      for (int l = 0; l < L; ++l) {
+        const double next = a[l] * q[k][l] + b[l] * cofactor[k][l];
+        change[l] += (next - q[k][l]) * (next - q[k][l]);
+        q[k][l] = next;
+      }
+    }
+    bool all = true;
+    for (int l = 0; l < L; ++l) {
+      converged[l] = converged[l] || change[l] < 1e-12;
+      all = all && (converged[l] || !usable[l]);
+    }
+    if (all) break;
+    cofactors();
+  }
+  for (int l = 0; l < L; ++l) converged[l] = converged[l] && usable[l];
+}
+
+}  // namespace
+
+void polar_rotations(const Mat3* F, Mat3* Q, int count) {
+  FISSURE_ASSERT(count >= 0 && count <= kPolarBatch);
+  double q[9][kPolarBatch];
+  for (int l = 0; l < kPolarBatch; ++l) {
+    const Mat3& lane = l < count ? F[l] : F[0];  // a short batch repeats its first matrix
+    for (int k = 0; k < 9; ++k) q[k][l] = lane.data()[k];
+  }
+  bool converged[kPolarBatch];
+  polar_newton_lanes(q, converged);
+  for (int l = 0; l < count; ++l) {
+    if (!converged[l]) {
+      Q[l] = polar_rotation(F[l]);
+      continue;
+    }
+    for (int k = 0; k < 9; ++k) Q[l].data()[k] = q[k][l];
+  }
 }
 
 CorotatedElasticity::CorotatedElasticity(const Matrix3Xd& rest, const Matrix4Xu& tets, const Material& material)
@@ -249,24 +336,34 @@ void CorotatedElasticity::evaluate(const Matrix3Xd& x, StiffnessModel model, boo
   out.forces.resize(count);
   out.stiffness.resize(model == StiffnessModel::Exact ? count : 0);
   out.stress.resize(with_stress ? count : 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 256), [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t index = range.begin(); index != range.end(); ++index) {
-      const auto t = static_cast<TetIndex>(index);
-      const Mat3 F = deformation_gradient(x, t);
-      Mat3 Q;
+  // In batches of kPolarBatch consecutive tets (by index, whatever the threads), so the
+  // warped model's polar rotations run a batch per SIMD register.
+  const std::size_t batches = (count + kPolarBatch - 1) / kPolarBatch;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, batches, 64), [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t batch = range.begin(); batch != range.end(); ++batch) {
+      const std::size_t first = batch * kPolarBatch;
+      const int size = static_cast<int>(std::min<std::size_t>(kPolarBatch, count - first));
+      Mat3 F[kPolarBatch], Q[kPolarBatch];
+      for (int l = 0; l < size; ++l) F[l] = deformation_gradient(x, static_cast<TetIndex>(first + l));
       if (model == StiffnessModel::Exact) {
-        const SignedSvd svd = signed_svd(F);  // the exact Hessian needs the singular values
-        Q = svd.U * svd.V.transpose();
-        out.stiffness[index] = exact_stiffness(t, F, svd, true);
+        for (int l = 0; l < size; ++l) {
+          const SignedSvd svd = signed_svd(F[l]);  // the exact Hessian needs the singular values
+          Q[l] = svd.U * svd.V.transpose();
+          out.stiffness[first + l] = exact_stiffness(static_cast<TetIndex>(first + l), F[l], svd, true);
+        }
       } else {
-        Q = polar_rotation(F);
+        polar_rotations(F, Q, size);
       }
-      const Mat3 sigma = stress(Q, F);
-      out.rotations[index] = Q;
-      out.rotated_gradients[index] = Q * m_gradients[t];
-      // fᵢ = −V Q σ gᵢ = −V Q σ Qᵀ ĝᵢ.
-      out.forces[index] = -m_volume[t] * (Q * sigma) * m_gradients[t];
-      if (with_stress) out.stress[index] = Q * sigma * Q.transpose();
+      for (int l = 0; l < size; ++l) {
+        const std::size_t index = first + l;
+        const auto t = static_cast<TetIndex>(index);
+        const Mat3 sigma = stress(Q[l], F[l]);
+        out.rotations[index] = Q[l];
+        out.rotated_gradients[index] = Q[l] * m_gradients[t];
+        // fᵢ = −V Q σ gᵢ = −V Q σ Qᵀ ĝᵢ.
+        out.forces[index] = -m_volume[t] * (Q[l] * sigma) * m_gradients[t];
+        if (with_stress) out.stress[index] = Q[l] * sigma * Q[l].transpose();
+      }
     }
   });
 }

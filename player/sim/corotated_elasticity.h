@@ -43,6 +43,15 @@ SignedSvd signed_svd(const Mat3& F);
 /// collapsed tets take signed_svd. Both give the same rotation where both apply.
 Mat3 polar_rotation(const Mat3& F);
 
+/// Q[i] = polar_rotation(F[i]) for up to kPolarBatch matrices at once: the Newton
+/// iterations of the batch run in lockstep, one SIMD lane per matrix, until every lane
+/// has converged (a lane that converged first takes extra steps at its fixed point, so
+/// the results match polar_rotation's to rounding, not bit for bit). Lanes Newton does
+/// not apply to take polar_rotation's SVD path. Which matrices share a batch must not
+/// depend on the thread count, for determinism: batch by absolute index.
+inline constexpr int kPolarBatch = 4;
+void polar_rotations(const Mat3* F, Mat3* Q, int count);
+
 /// Per-tet results of one evaluation, written by tet index from any thread and read
 /// back in tet order, so sums over them do not depend on the thread count.
 struct ElementBuffers {

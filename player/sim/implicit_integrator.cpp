@@ -468,13 +468,21 @@ void ImplicitIntegrator::update_node_rotations() {
   });
   const auto free_count = static_cast<Index>(m_free_nodes.size());
   m_node_rotation.resize(free_count);
-  tbb::parallel_for(tbb::blocked_range<Index>(0, free_count, 256), [&](const tbb::blocked_range<Index>& range) {
-    for (Index c = range.begin(); c != range.end(); ++c) {
-      Mat3 sum = Mat3::Zero();
-      for (Index k = m_incidence_start[c]; k < m_incidence_start[c + 1]; ++k) {
-        sum += m_tet_rotation_change[m_incidence[k].first];
+  // Batched by node index (polar_rotations), whatever the threads.
+  const Index batches = (free_count + kPolarBatch - 1) / kPolarBatch;
+  tbb::parallel_for(tbb::blocked_range<Index>(0, batches, 64), [&](const tbb::blocked_range<Index>& range) {
+    for (Index batch = range.begin(); batch != range.end(); ++batch) {
+      const Index first = batch * kPolarBatch;
+      const int size = static_cast<int>(std::min<Index>(kPolarBatch, free_count - first));
+      Mat3 sums[kPolarBatch];
+      for (int l = 0; l < size; ++l) {
+        const Index c = first + l;
+        sums[l].setZero();
+        for (Index k = m_incidence_start[c]; k < m_incidence_start[c + 1]; ++k) {
+          sums[l] += m_tet_rotation_change[m_incidence[k].first];
+        }
       }
-      m_node_rotation[c] = polar_rotation(sum);
+      polar_rotations(sums, &m_node_rotation[first], size);
     }
   });
 }

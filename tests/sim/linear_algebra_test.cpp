@@ -2,6 +2,7 @@
 // stiffness product, conjugate gradients and the sparse Cholesky factor.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 
 #include <tbb/global_control.h>
@@ -47,6 +48,35 @@ TEST(PolarRotation, InvertedFlatAndCollapsedTetsGetProperRotations) {
     EXPECT_LT((Q * Q.transpose() - Mat3::Identity()).norm(), 1e-12);
   }
   EXPECT_LT((polar_rotation(inverted) - Mat3::Identity()).norm(), 1e-12);  // the reflection goes onto σ₃
+}
+
+TEST(PolarRotation, BatchesMatchOneAtATimeWithInvertedAndShortBatches) {
+  std::mt19937 rng(11);
+  std::vector<Mat3> F;
+  for (int trial = 0; trial < 400; ++trial) {
+    const Mat3 rotation = Eigen::Quaterniond::UnitRandom().toRotationMatrix();
+    F.push_back(rotation * (Mat3::Identity() + random_matrix(rng, trial % 3 == 0 ? 0.9 : 0.05)));
+  }
+  // Lanes Newton does not take, among lanes it does: they get polar_rotation's SVD answer.
+  F[5] = Vec3(1.0, 1.0, -0.5).asDiagonal();  // inverted
+  F[6] = Vec3(1.0, 2.0, 0.0).asDiagonal();   // flat
+  F[7] = Mat3::Zero();                       // collapsed
+  F[9] = Mat3::Constant(std::numeric_limits<double>::quiet_NaN());  // must not harm its batch's other lanes
+  for (int count = 1; count <= kPolarBatch; ++count) {
+    for (std::size_t first = 0; first + count <= F.size(); first += count) {
+      Mat3 Q[kPolarBatch];
+      polar_rotations(&F[first], Q, count);
+      for (int l = 0; l < count; ++l) {
+        const Mat3 expected = polar_rotation(F[first + l]);
+        if (!F[first + l].allFinite()) {  // NaN in, NaN out (for the step's non-finite check)
+          EXPECT_TRUE(Q[l].hasNaN());
+          continue;
+        }
+        EXPECT_LT((Q[l] - expected).norm(), 1e-10) << "matrix " << first + l << " in a batch of " << count;
+        EXPECT_NEAR(Q[l].determinant(), 1.0, 1e-12);
+      }
+    }
+  }
 }
 
 TEST(StiffnessProduct, MatchesTheAssembledTetStiffnessInBothModels) {
