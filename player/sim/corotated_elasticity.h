@@ -110,6 +110,10 @@ class CorotatedElasticity {
   /// buffers, in either stiffness model. Warped: with W = Σⱼ uⱼ ĝⱼᵀ,
   /// (K u)ᵢ = −V (μ (W + Wᵀ) + λ tr(W) I) ĝᵢ.
   [[nodiscard]] Mat34 stiffness_times(TetIndex t, const ElementBuffers& buffers, const Mat34& u) const;
+  /// out[l] = K u[l] of tet first + l, for count ≤ kPolarBatch consecutive tets: the
+  /// same products, the warped model's a batch per SIMD register (they are the
+  /// conjugate-gradient product's whole per-tet work).
+  void stiffness_times(TetIndex first, int count, const ElementBuffers& buffers, const Mat34* u, Mat34* out) const;
 
   /// The exact K_t = ∂f_t/∂x_t at x (rotation differentiated). With `project` its
   /// indefinite part is clamped so that −K_t is positive semi-definite.

@@ -260,12 +260,17 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
 
   // Per tet f + (β + h) K v; then per free node the sum over its slots, in tet order.
   m_tet_rhs.resize(tet_count);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tet_count, 512), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t) {
-      Mat34 v;
-      for (int j = 0; j < 4; ++j) v.col(j) = velocities.col(tets(j, t));
-      m_tet_rhs[t] = m_elements.forces[t] +
-                     (beta + h) * m_elasticity.stiffness_times(static_cast<TetIndex>(t), m_elements, v);
+  const std::size_t batches = (tet_count + kPolarBatch - 1) / kPolarBatch;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, batches, 128), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t batch = r.begin(); batch != r.end(); ++batch) {
+      const std::size_t first = batch * kPolarBatch;
+      const int size = static_cast<int>(std::min<std::size_t>(kPolarBatch, tet_count - first));
+      Mat34 v[kPolarBatch], kv[kPolarBatch];
+      for (int l = 0; l < size; ++l) {
+        for (int j = 0; j < 4; ++j) v[l].col(j) = velocities.col(tets(j, first + l));
+      }
+      m_elasticity.stiffness_times(static_cast<TetIndex>(first), size, m_elements, v, kv);
+      for (int l = 0; l < size; ++l) m_tet_rhs[first + l] = m_elements.forces[first + l] + (beta + h) * kv[l];
     }
   });
   Eigen::VectorXd b(rows);
@@ -433,14 +438,19 @@ void ImplicitIntegrator::system_product(double k_scale, double m_scale, const Ei
   // per free node the sum over its slots in tet order: deterministic, like assembly.
   const std::size_t tet_count = m_elasticity.tet_count();
   m_tet_product.resize(tet_count);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tet_count, 512), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t t = r.begin(); t != r.end(); ++t) {
-      Mat34 u;
-      for (int j = 0; j < 4; ++j) {
-        const Index dof = m_tet_dofs[t][j];
-        u.col(j) = dof == kInvalidIndex ? Vec3::Zero() : Vec3(x.segment<3>(dof));
+  const std::size_t batches = (tet_count + kPolarBatch - 1) / kPolarBatch;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, batches, 128), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t batch = r.begin(); batch != r.end(); ++batch) {
+      const std::size_t first = batch * kPolarBatch;
+      const int size = static_cast<int>(std::min<std::size_t>(kPolarBatch, tet_count - first));
+      Mat34 u[kPolarBatch];
+      for (int l = 0; l < size; ++l) {
+        for (int j = 0; j < 4; ++j) {
+          const Index dof = m_tet_dofs[first + l][j];
+          u[l].col(j) = dof == kInvalidIndex ? Vec3::Zero() : Vec3(x.segment<3>(dof));
+        }
       }
-      m_tet_product[t] = m_elasticity.stiffness_times(static_cast<TetIndex>(t), m_elements, u);
+      m_elasticity.stiffness_times(static_cast<TetIndex>(first), size, m_elements, u, &m_tet_product[first]);
     }
   });
   const auto free_count = static_cast<Index>(m_free_nodes.size());

@@ -2,6 +2,7 @@
 // stiffness product, conjugate gradients and the sparse Cholesky factor.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <limits>
 #include <random>
 
@@ -79,27 +80,37 @@ TEST(PolarRotation, BatchesMatchOneAtATimeWithInvertedAndShortBatches) {
   }
 }
 
-TEST(StiffnessProduct, MatchesTheAssembledTetStiffnessInBothModels) {
-  const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(1.0, 1.0, 1.0), 1, 1, 1);
+TEST(StiffnessProduct, MatchesTheAssembledTetStiffnessInBothModelsOneAtATimeAndInBatches) {
+  const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(1.0, 3.0, 1.0), 1, 3, 1);  // full and short batches
   const CorotatedElasticity elasticity(cage.rest_positions, cage.tets, Material{.youngs_modulus = 1e6});
+  ASSERT_GT(elasticity.tet_count() % kPolarBatch, 0u);
   std::mt19937 rng(3);
   Matrix3Xd x = cage.rest_positions;
   const Mat3 turn = Eigen::AngleAxisd(0.7, Vec3::UnitZ()).toRotationMatrix();
   for (Eigen::Index n = 0; n < x.cols(); ++n) x.col(n) = turn * x.col(n) + 0.1 * random_matrix(rng, 1.0).col(0);
+  const auto expect_near = [](const Mat34& product, const Eigen::Matrix<double, 12, 1>& expected, TetIndex t) {
+    EXPECT_LT((Eigen::Map<const Eigen::Matrix<double, 12, 1>>(product.data()) - expected).norm(), 1e-12 * expected.norm())
+        << "tet " << t;
+  };
   for (const StiffnessModel model : {StiffnessModel::Warped, StiffnessModel::Exact}) {
     ElementBuffers buffers;
     elasticity.evaluate(x, model, false, buffers);
+    std::vector<Mat34> u(elasticity.tet_count());
+    std::vector<Eigen::Matrix<double, 12, 1>> expected(elasticity.tet_count());
     for (TetIndex t = 0; t < elasticity.tet_count(); ++t) {
       const Mat12 K = model == StiffnessModel::Warped ? elasticity.stiffness(t, buffers.rotations[t])
                                                       : elasticity.exact_stiffness(t, x, true);
-      const Mat34 u = random_matrix(rng, 1.0) * Mat34::Random();
+      u[t] = random_matrix(rng, 1.0) * Mat34::Random();
       Eigen::Matrix<double, 12, 1> stacked;
-      for (int j = 0; j < 4; ++j) stacked.segment<3>(3 * j) = u.col(j);
-      const Eigen::Matrix<double, 12, 1> expected = K * stacked;
-      const Mat34 product = elasticity.stiffness_times(t, buffers, u);
-      EXPECT_LT((Eigen::Map<const Eigen::Matrix<double, 12, 1>>(product.data()) - expected).norm(),
-                1e-12 * expected.norm())
-          << "tet " << t;
+      for (int j = 0; j < 4; ++j) stacked.segment<3>(3 * j) = u[t].col(j);
+      expected[t] = K * stacked;
+      expect_near(elasticity.stiffness_times(t, buffers, u[t]), expected[t], t);
+    }
+    for (TetIndex first = 0; first < elasticity.tet_count(); first += kPolarBatch) {
+      const int count = static_cast<int>(std::min<std::size_t>(kPolarBatch, elasticity.tet_count() - first));
+      Mat34 products[kPolarBatch];
+      elasticity.stiffness_times(first, count, buffers, &u[first], products);
+      for (int l = 0; l < count; ++l) expect_near(products[l], expected[first + l], first + l);
     }
   }
 }
