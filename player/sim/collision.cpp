@@ -409,6 +409,7 @@ ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environm
   ContactResponseSettings response;
   response.dt = h;
   response.iterations = settings.iterations;
+  response.reference_speed = settings.gravity.norm() * h;
   const ContactResponseReport outcome = respond_to_contacts(bodies, projectiles, constraints, response);
   counts.response_iterations = outcome.cg_iterations;
   if (settings.impulses != nullptr) {
