@@ -1,12 +1,10 @@
 #include "player/sim/corotated_elasticity.h"
 
 #include <Eigen/LU>
-#include <algorithm>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 #include <limits>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "common/assert.h"
 #include "common/error.h"
@@ -120,8 +118,8 @@ namespace {
 /// column-major). Returns, per lane, whether it converged; built for AVX2/FMA and for
 /// baseline x86-64 and chosen at load time (the same machine always takes the same one).
 __attribute__((target_clones("arch=x86-64-v3", "default"))) void polar_newton_lanes(
-    double (&q)[9][kPolarBatch], bool (&converged)[kPolarBatch]) {
-  constexpr int L = kPolarBatch;
+    double (&q)[9][kLanes], bool (&converged)[kLanes]) {
+  constexpr int L = kLanes;
   double cofactor[9][L], det[L], change[L], a[L], b[L];
   bool usable[L];
   const auto cofactors = [&]() {
@@ -178,13 +176,13 @@ __attribute__((target_clones("arch=x86-64-v3", "default"))) void polar_newton_la
 }  // namespace
 
 void polar_rotations(const Mat3* F, Mat3* Q, int count) {
-  FISSURE_ASSERT(count >= 0 && count <= kPolarBatch);
-  double q[9][kPolarBatch];
-  for (int l = 0; l < kPolarBatch; ++l) {
+  FISSURE_ASSERT(count >= 0 && count <= kLanes);
+  double q[9][kLanes];
+  for (int l = 0; l < kLanes; ++l) {
     const Mat3& lane = l < count ? F[l] : F[0];  // a short batch repeats its first matrix
     for (int k = 0; k < 9; ++k) q[k][l] = lane.data()[k];
   }
-  bool converged[kPolarBatch];
+  bool converged[kLanes];
   polar_newton_lanes(q, converged);
   for (int l = 0; l < count; ++l) {
     if (!converged[l]) {
@@ -204,10 +202,10 @@ namespace {
 
 /// F = Σᵢ xᵢ gᵢᵀ.
 __attribute__((target_clones("arch=x86-64-v3", "default"))) void deformation_gradient_lanes(
-    const double (&x)[12][kPolarBatch], const double (&g)[12][kPolarBatch], double (&F)[9][kPolarBatch]) {
+    const double (&x)[12][kLanes], const double (&g)[12][kLanes], double (&F)[9][kLanes]) {
   for (int a = 0; a < 3; ++a) {
     for (int b = 0; b < 3; ++b) {
-      for (int l = 0; l < kPolarBatch; ++l) {
+      for (int l = 0; l < kLanes; ++l) {
         F[a + 3 * b][l] = x[a][l] * g[b][l] + x[3 + a][l] * g[3 + b][l] + x[6 + a][l] * g[6 + b][l] +
                           x[9 + a][l] * g[9 + b][l];
       }
@@ -218,10 +216,10 @@ __attribute__((target_clones("arch=x86-64-v3", "default"))) void deformation_gra
 /// From the rotation Q and F: the rotated gradients Q g, the forces −V Q σ g with
 /// σ = 2μ ε + λ tr(ε) I, ε = sym(Qᵀ F) − I, and the world stress Q σ Qᵀ.
 __attribute__((target_clones("arch=x86-64-v3", "default"))) void element_lanes(
-    const double (&Q)[9][kPolarBatch], const double (&F)[9][kPolarBatch], const double (&g)[12][kPolarBatch],
-    const double (&volume)[kPolarBatch], double mu, double lambda, double (&rotated)[12][kPolarBatch],
-    double (&forces)[12][kPolarBatch], double (&world_stress)[9][kPolarBatch]) {
-  constexpr int L = kPolarBatch;
+    const double (&Q)[9][kLanes], const double (&F)[9][kLanes], const double (&g)[12][kLanes],
+    const double (&volume)[kLanes], double mu, double lambda, double (&rotated)[12][kLanes],
+    double (&forces)[12][kLanes], double (&world_stress)[9][kLanes]) {
+  constexpr int L = kLanes;
   double S[9][L], sigma[9][L], P[9][L];
   for (int a = 0; a < 3; ++a) {
     for (int b = 0; b < 3; ++b) {
@@ -360,9 +358,9 @@ namespace {
 /// The warped product on lanes (entry k = 3j + a of a 3×4 matrix, column-major):
 /// W = u ĝᵀ, σ = μ (W + Wᵀ) + λ tr(W) I, out = scale σ ĝ with scale = −V.
 __attribute__((target_clones("arch=x86-64-v3", "default"))) void warped_product_lanes(
-    const double (&u)[12][kPolarBatch], const double (&g)[12][kPolarBatch], const double (&scale)[kPolarBatch],
-    double mu, double lambda, double (&out)[12][kPolarBatch]) {
-  constexpr int L = kPolarBatch;
+    const double (&u)[12][kLanes], const double (&g)[12][kLanes], const double (&scale)[kLanes],
+    double mu, double lambda, double (&out)[12][kLanes]) {
+  constexpr int L = kLanes;
   double W[3][3][L];
   for (int a = 0; a < 3; ++a) {
     for (int b = 0; b < 3; ++b) {
@@ -391,13 +389,13 @@ __attribute__((target_clones("arch=x86-64-v3", "default"))) void warped_product_
 
 void CorotatedElasticity::stiffness_times(TetIndex first, int count, const ElementBuffers& buffers, const Mat34* u,
                                           Mat34* out) const {
-  FISSURE_ASSERT(count >= 0 && count <= kPolarBatch);
+  FISSURE_ASSERT(count >= 0 && count <= kLanes);
   if (buffers.model == StiffnessModel::Exact) {
     for (int l = 0; l < count; ++l) out[l] = stiffness_times(first + l, buffers, u[l]);
     return;
   }
-  double u_lanes[12][kPolarBatch], g_lanes[12][kPolarBatch], scale[kPolarBatch], out_lanes[12][kPolarBatch];
-  for (int l = 0; l < kPolarBatch; ++l) {
+  double u_lanes[12][kLanes], g_lanes[12][kLanes], scale[kLanes], out_lanes[12][kLanes];
+  for (int l = 0; l < kLanes; ++l) {
     const int lane = l < count ? l : 0;  // a short batch repeats its first tet
     const Mat34& g = buffers.rotated_gradients[first + lane];
     for (int k = 0; k < 12; ++k) {
@@ -465,67 +463,62 @@ void CorotatedElasticity::evaluate(const Matrix3Xd& x, StiffnessModel model, boo
   out.forces.resize(count);
   out.stiffness.resize(model == StiffnessModel::Exact ? count : 0);
   out.stress.resize(with_stress ? count : 0);
-  // In batches of kPolarBatch consecutive tets (by index, whatever the threads): the
+  // In batches of kLanes consecutive tets (by index, whatever the threads): the
   // deformation gradients, polar rotations, stresses and forces run a batch per SIMD
   // register (deformation_gradient_lanes, polar_newton_lanes, element_lanes).
-  const std::size_t batches = (count + kPolarBatch - 1) / kPolarBatch;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, batches, 64), [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t batch = range.begin(); batch != range.end(); ++batch) {
-      const std::size_t first = batch * kPolarBatch;
-      const int size = static_cast<int>(std::min<std::size_t>(kPolarBatch, count - first));
-      constexpr int L = kPolarBatch;
-      double x_lanes[12][L], g_lanes[12][L], volume[L], F_lanes[9][L], q[9][L];
-      for (int l = 0; l < L; ++l) {
-        const auto t = static_cast<TetIndex>(first + (l < size ? l : 0));  // a short batch repeats its first tet
-        const Mat34& g = m_gradients[t];
-        for (int i = 0; i < 4; ++i) {
-          const auto node = x.col(m_tets(i, t));
-          for (int a = 0; a < 3; ++a) {
-            x_lanes[3 * i + a][l] = node[a];
-            g_lanes[3 * i + a][l] = g(a, i);
-          }
-        }
-        volume[l] = m_volume[t];
-      }
-      deformation_gradient_lanes(x_lanes, g_lanes, F_lanes);
-      const auto lane_matrix = [](const double (&lanes)[9][L], int l) {
-        Mat3 m;
-        for (int k = 0; k < 9; ++k) m.data()[k] = lanes[k][l];
-        return m;
-      };
-      if (model == StiffnessModel::Exact) {
-        for (int l = 0; l < size; ++l) {
-          const Mat3 F = lane_matrix(F_lanes, l);
-          const SignedSvd svd = signed_svd(F);  // the exact Hessian needs the singular values
-          const Mat3 Q = svd.U * svd.V.transpose();
-          out.stiffness[first + l] = exact_stiffness(static_cast<TetIndex>(first + l), F, svd, true);
-          for (int k = 0; k < 9; ++k) q[k][l] = Q.data()[k];
-        }
-        for (int l = size; l < L; ++l) {
-          for (int k = 0; k < 9; ++k) q[k][l] = q[k][0];
-        }
-      } else {
-        bool converged[L];
-        std::copy(&F_lanes[0][0], &F_lanes[0][0] + 9 * L, &q[0][0]);
-        polar_newton_lanes(q, converged);
-        for (int l = 0; l < L; ++l) {
-          if (converged[l]) continue;
-          const Mat3 Q = polar_rotation(lane_matrix(F_lanes, l));
-          for (int k = 0; k < 9; ++k) q[k][l] = Q.data()[k];
+  parallel_for_batches<std::size_t>(count, 256, [&](std::size_t first, int size) {
+    constexpr int L = kLanes;
+    double x_lanes[12][L], g_lanes[12][L], volume[L], F_lanes[9][L], q[9][L];
+    for (int l = 0; l < L; ++l) {
+      const auto t = static_cast<TetIndex>(first + (l < size ? l : 0));  // a short batch repeats its first tet
+      const Mat34& g = m_gradients[t];
+      for (int i = 0; i < 4; ++i) {
+        const auto node = x.col(m_tets(i, t));
+        for (int a = 0; a < 3; ++a) {
+          x_lanes[3 * i + a][l] = node[a];
+          g_lanes[3 * i + a][l] = g(a, i);
         }
       }
-      double rotated[12][L], forces[12][L], world_stress[9][L];
-      element_lanes(q, F_lanes, g_lanes, volume, m_mu, m_lambda, rotated, forces, world_stress);
+      volume[l] = m_volume[t];
+    }
+    deformation_gradient_lanes(x_lanes, g_lanes, F_lanes);
+    const auto lane_matrix = [](const double (&lanes)[9][L], int l) {
+      Mat3 m;
+      for (int k = 0; k < 9; ++k) m.data()[k] = lanes[k][l];
+      return m;
+    };
+    if (model == StiffnessModel::Exact) {
       for (int l = 0; l < size; ++l) {
-        const std::size_t index = first + l;
-        for (int k = 0; k < 9; ++k) out.rotations[index].data()[k] = q[k][l];
-        for (int k = 0; k < 12; ++k) {
-          out.rotated_gradients[index].data()[k] = rotated[k][l];
-          out.forces[index].data()[k] = forces[k][l];
-        }
-        if (with_stress) {
-          for (int k = 0; k < 9; ++k) out.stress[index].data()[k] = world_stress[k][l];
-        }
+        const Mat3 F = lane_matrix(F_lanes, l);
+        const SignedSvd svd = signed_svd(F);  // the exact Hessian needs the singular values
+        const Mat3 Q = svd.U * svd.V.transpose();
+        out.stiffness[first + l] = exact_stiffness(static_cast<TetIndex>(first + l), F, svd, true);
+        for (int k = 0; k < 9; ++k) q[k][l] = Q.data()[k];
+      }
+      for (int l = size; l < L; ++l) {
+        for (int k = 0; k < 9; ++k) q[k][l] = q[k][0];
+      }
+    } else {
+      bool converged[L];
+      std::copy(&F_lanes[0][0], &F_lanes[0][0] + 9 * L, &q[0][0]);
+      polar_newton_lanes(q, converged);
+      for (int l = 0; l < L; ++l) {
+        if (converged[l]) continue;
+        const Mat3 Q = polar_rotation(lane_matrix(F_lanes, l));
+        for (int k = 0; k < 9; ++k) q[k][l] = Q.data()[k];
+      }
+    }
+    double rotated[12][L], forces[12][L], world_stress[9][L];
+    element_lanes(q, F_lanes, g_lanes, volume, m_mu, m_lambda, rotated, forces, world_stress);
+    for (int l = 0; l < size; ++l) {
+      const std::size_t index = first + l;
+      for (int k = 0; k < 9; ++k) out.rotations[index].data()[k] = q[k][l];
+      for (int k = 0; k < 12; ++k) {
+        out.rotated_gradients[index].data()[k] = rotated[k][l];
+        out.forces[index].data()[k] = forces[k][l];
+      }
+      if (with_stress) {
+        for (int k = 0; k < 9; ++k) out.stress[index].data()[k] = world_stress[k][l];
       }
     }
   });

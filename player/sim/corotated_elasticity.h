@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "common/types.h"
+#include "player/sim/lanes.h"
 #include "player/sim/material.h"
 
 namespace fissure::sim {
@@ -43,13 +44,12 @@ SignedSvd signed_svd(const Mat3& F);
 /// collapsed tets take signed_svd. Both give the same rotation where both apply.
 Mat3 polar_rotation(const Mat3& F);
 
-/// Q[i] = polar_rotation(F[i]) for up to kPolarBatch matrices at once: the Newton
+/// Q[i] = polar_rotation(F[i]) for up to kLanes matrices at once: the Newton
 /// iterations of the batch run in lockstep, one SIMD lane per matrix, until every lane
 /// has converged (a lane that converged first takes extra steps at its fixed point, so
 /// the results match polar_rotation's to rounding, not bit for bit). Lanes Newton does
 /// not apply to take polar_rotation's SVD path. Which matrices share a batch must not
-/// depend on the thread count, for determinism: batch by absolute index.
-inline constexpr int kPolarBatch = 4;
+/// depend on the thread count, for determinism: batch by absolute index (lanes.h).
 void polar_rotations(const Mat3* F, Mat3* Q, int count);
 
 /// Per-tet results of one evaluation, written by tet index from any thread and read
@@ -110,7 +110,7 @@ class CorotatedElasticity {
   /// buffers, in either stiffness model. Warped: with W = Σⱼ uⱼ ĝⱼᵀ,
   /// (K u)ᵢ = −V (μ (W + Wᵀ) + λ tr(W) I) ĝᵢ.
   [[nodiscard]] Mat34 stiffness_times(TetIndex t, const ElementBuffers& buffers, const Mat34& u) const;
-  /// out[l] = K u[l] of tet first + l, for count ≤ kPolarBatch consecutive tets: the
+  /// out[l] = K u[l] of tet first + l, for count ≤ kLanes consecutive tets: the
   /// same products, the warped model's a batch per SIMD register (they are the
   /// conjugate-gradient product's whole per-tet work).
   void stiffness_times(TetIndex first, int count, const ElementBuffers& buffers, const Mat34* u, Mat34* out) const;

@@ -260,18 +260,13 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
 
   // Per tet f + (β + h) K v; then per free node the sum over its slots, in tet order.
   m_tet_rhs.resize(tet_count);
-  const std::size_t batches = (tet_count + kPolarBatch - 1) / kPolarBatch;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, batches, 128), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t batch = r.begin(); batch != r.end(); ++batch) {
-      const std::size_t first = batch * kPolarBatch;
-      const int size = static_cast<int>(std::min<std::size_t>(kPolarBatch, tet_count - first));
-      Mat34 v[kPolarBatch], kv[kPolarBatch];
-      for (int l = 0; l < size; ++l) {
-        for (int j = 0; j < 4; ++j) v[l].col(j) = velocities.col(tets(j, first + l));
-      }
-      m_elasticity.stiffness_times(static_cast<TetIndex>(first), size, m_elements, v, kv);
-      for (int l = 0; l < size; ++l) m_tet_rhs[first + l] = m_elements.forces[first + l] + (beta + h) * kv[l];
+  parallel_for_batches<std::size_t>(tet_count, 512, [&](std::size_t first, int size) {
+    Mat34 v[kLanes], kv[kLanes];
+    for (int l = 0; l < size; ++l) {
+      for (int j = 0; j < 4; ++j) v[l].col(j) = velocities.col(tets(j, first + l));
     }
+    m_elasticity.stiffness_times(static_cast<TetIndex>(first), size, m_elements, v, kv);
+    for (int l = 0; l < size; ++l) m_tet_rhs[first + l] = m_elements.forces[first + l] + (beta + h) * kv[l];
   });
   Eigen::VectorXd b(rows);
   tbb::parallel_for(tbb::blocked_range<Index>(0, free_count, 64), [&](const tbb::blocked_range<Index>& range) {
@@ -438,20 +433,15 @@ void ImplicitIntegrator::system_product(double k_scale, double m_scale, const Ei
   // per free node the sum over its slots in tet order: deterministic, like assembly.
   const std::size_t tet_count = m_elasticity.tet_count();
   m_tet_product.resize(tet_count);
-  const std::size_t batches = (tet_count + kPolarBatch - 1) / kPolarBatch;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, batches, 128), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t batch = r.begin(); batch != r.end(); ++batch) {
-      const std::size_t first = batch * kPolarBatch;
-      const int size = static_cast<int>(std::min<std::size_t>(kPolarBatch, tet_count - first));
-      Mat34 u[kPolarBatch];
-      for (int l = 0; l < size; ++l) {
-        for (int j = 0; j < 4; ++j) {
-          const Index dof = m_tet_dofs[first + l][j];
-          u[l].col(j) = dof == kInvalidIndex ? Vec3::Zero() : Vec3(x.segment<3>(dof));
-        }
+  parallel_for_batches<std::size_t>(tet_count, 512, [&](std::size_t first, int size) {
+    Mat34 u[kLanes];
+    for (int l = 0; l < size; ++l) {
+      for (int j = 0; j < 4; ++j) {
+        const Index dof = m_tet_dofs[first + l][j];
+        u[l].col(j) = dof == kInvalidIndex ? Vec3::Zero() : Vec3(x.segment<3>(dof));
       }
-      m_elasticity.stiffness_times(static_cast<TetIndex>(first), size, m_elements, u, &m_tet_product[first]);
     }
+    m_elasticity.stiffness_times(static_cast<TetIndex>(first), size, m_elements, u, &m_tet_product[first]);
   });
   const auto free_count = static_cast<Index>(m_free_nodes.size());
   y.resize(x.size());
@@ -478,22 +468,16 @@ void ImplicitIntegrator::update_node_rotations() {
   });
   const auto free_count = static_cast<Index>(m_free_nodes.size());
   m_node_rotation.resize(free_count);
-  // Batched by node index (polar_rotations), whatever the threads.
-  const Index batches = (free_count + kPolarBatch - 1) / kPolarBatch;
-  tbb::parallel_for(tbb::blocked_range<Index>(0, batches, 64), [&](const tbb::blocked_range<Index>& range) {
-    for (Index batch = range.begin(); batch != range.end(); ++batch) {
-      const Index first = batch * kPolarBatch;
-      const int size = static_cast<int>(std::min<Index>(kPolarBatch, free_count - first));
-      Mat3 sums[kPolarBatch];
-      for (int l = 0; l < size; ++l) {
-        const Index c = first + l;
-        sums[l].setZero();
-        for (Index k = m_incidence_start[c]; k < m_incidence_start[c + 1]; ++k) {
-          sums[l] += m_tet_rotation_change[m_incidence[k].first];
-        }
+  parallel_for_batches<Index>(free_count, 256, [&](Index first, int size) {
+    Mat3 sums[kLanes];
+    for (int l = 0; l < size; ++l) {
+      const Index c = first + l;
+      sums[l].setZero();
+      for (Index k = m_incidence_start[c]; k < m_incidence_start[c + 1]; ++k) {
+        sums[l] += m_tet_rotation_change[m_incidence[k].first];
       }
-      polar_rotations(sums, &m_node_rotation[first], size);
     }
+    polar_rotations(sums, &m_node_rotation[first], size);
   });
 }
 

@@ -116,7 +116,7 @@ TEST(CorotatedElasticity, InvertedTetsGetProperRotationsAndFiniteForces) {
 TEST(CorotatedElasticity, BatchedEvaluationMatchesThePerTetDefinitions) {
   const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(3.0, 1.0, 1.0), 3, 1, 1);
   const CorotatedElasticity elasticity(cage.rest_positions, cage.tets, Material{.youngs_modulus = 1e5});
-  ASSERT_GT(elasticity.tet_count() % kPolarBatch, 0u);  // a short last batch too
+  ASSERT_GT(elasticity.tet_count() % kLanes, 0u);  // a short last batch too
   Matrix3Xd x = rotation(0.9, Vec3(1, -2, 1)) * perturbed(cage.rest_positions, 0.25, 5);
   x.col(cage.tets(0, 1)) = x.col(cage.tets(3, 1));  // tet 1 and its neighbours collapse or invert
   x.col(cage.tets(2, 6)) = 2.0 * x.col(cage.tets(0, 6)) - x.col(cage.tets(2, 6));

@@ -63,9 +63,9 @@ TEST(PolarRotation, BatchesMatchOneAtATimeWithInvertedAndShortBatches) {
   F[6] = Vec3(1.0, 2.0, 0.0).asDiagonal();   // flat
   F[7] = Mat3::Zero();                       // collapsed
   F[9] = Mat3::Constant(std::numeric_limits<double>::quiet_NaN());  // must not harm its batch's other lanes
-  for (int count = 1; count <= kPolarBatch; ++count) {
+  for (int count = 1; count <= kLanes; ++count) {
     for (std::size_t first = 0; first + count <= F.size(); first += count) {
-      Mat3 Q[kPolarBatch];
+      Mat3 Q[kLanes];
       polar_rotations(&F[first], Q, count);
       for (int l = 0; l < count; ++l) {
         const Mat3 expected = polar_rotation(F[first + l]);
@@ -83,7 +83,7 @@ TEST(PolarRotation, BatchesMatchOneAtATimeWithInvertedAndShortBatches) {
 TEST(StiffnessProduct, MatchesTheAssembledTetStiffnessInBothModelsOneAtATimeAndInBatches) {
   const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(1.0, 3.0, 1.0), 1, 3, 1);  // full and short batches
   const CorotatedElasticity elasticity(cage.rest_positions, cage.tets, Material{.youngs_modulus = 1e6});
-  ASSERT_GT(elasticity.tet_count() % kPolarBatch, 0u);
+  ASSERT_GT(elasticity.tet_count() % kLanes, 0u);
   std::mt19937 rng(3);
   Matrix3Xd x = cage.rest_positions;
   const Mat3 turn = Eigen::AngleAxisd(0.7, Vec3::UnitZ()).toRotationMatrix();
@@ -106,9 +106,9 @@ TEST(StiffnessProduct, MatchesTheAssembledTetStiffnessInBothModelsOneAtATimeAndI
       expected[t] = K * stacked;
       expect_near(elasticity.stiffness_times(t, buffers, u[t]), expected[t], t);
     }
-    for (TetIndex first = 0; first < elasticity.tet_count(); first += kPolarBatch) {
-      const int count = static_cast<int>(std::min<std::size_t>(kPolarBatch, elasticity.tet_count() - first));
-      Mat34 products[kPolarBatch];
+    for (TetIndex first = 0; first < elasticity.tet_count(); first += kLanes) {
+      const int count = static_cast<int>(std::min<std::size_t>(kLanes, elasticity.tet_count() - first));
+      Mat34 products[kLanes];
       elasticity.stiffness_times(first, count, buffers, &u[first], products);
       for (int l = 0; l < count; ++l) expect_near(products[l], expected[first + l], first + l);
     }
