@@ -51,7 +51,8 @@ ImplicitIntegrator::ImplicitIntegrator(const Matrix3Xd& rest, const Matrix4Xu& t
       m_material(material),
       m_rest(rest),
       m_pinned(static_cast<std::size_t>(rest.cols()), 0),
-      m_last_dv(Matrix3Xd::Zero(3, rest.cols())) {
+      m_last_dv(Matrix3Xd::Zero(3, rest.cols())),
+      m_previous_dv(Matrix3Xd::Zero(3, rest.cols())) {
   const std::size_t tet_count = m_elasticity.tet_count();
   if (mass != nullptr && (mass->fraction.size() != tet_count || mass->center_of_mass.size() != tet_count)) {
     throw Error("mass distribution has " + std::to_string(mass->fraction.size()) + " fractions and " +
@@ -96,6 +97,7 @@ void ImplicitIntegrator::pin(std::span<const NodeIndex> nodes) {
     m_pinned[node] = 1;
     velocities.col(node).setZero();
   }
+  m_smooth_solves = 0;
   m_pattern_dirty = true;
   m_system_form = SystemForm::None;
 }
@@ -110,6 +112,7 @@ NodeIndex ImplicitIntegrator::split_node(NodeIndex node, std::span<const std::pa
   grow(velocities);
   grow(m_rest);
   grow(m_last_dv);
+  grow(m_previous_dv);
   m_pinned.push_back(m_pinned[node]);
   for (const auto& [t, corner] : slots) {
     FISSURE_ASSERT(m_elasticity.tets()(corner, t) == node);
@@ -313,7 +316,12 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
     m_system_form = SystemForm::Assembled;
     m_system_inverse = SystemInverse::Factor;
   } else {
-    for (Index c = 0; c < free_count; ++c) dv.segment<3>(3 * c) = m_last_dv.col(m_free_nodes[c]);
+    // The warm start (see m_last_dv): extrapolated only across smooth solves.
+    const bool extrapolate = m_smooth_solves >= 2 && h == m_last_dt;
+    for (Index c = 0; c < free_count; ++c) {
+      const NodeIndex n = m_free_nodes[c];
+      dv.segment<3>(3 * c) = extrapolate ? Vec3(2.0 * m_last_dv.col(n) - m_previous_dv.col(n)) : Vec3(m_last_dv.col(n));
+    }
     if (lagged) {
       if (refactor_lagged && !refactor()) return SolveStatus::NotPositiveDefinite;
       update_node_rotations();
@@ -334,10 +342,13 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
   if (!dv.allFinite()) return SolveStatus::NonFinite;
   for (Index c = 0; c < free_count; ++c) {
     const NodeIndex n = m_free_nodes[c];
+    m_previous_dv.col(n) = m_last_dv.col(n);
     m_last_dv.col(n) = dv.segment<3>(3 * c);
     velocities.col(n) += dv.segment<3>(3 * c);
     positions.col(n) += h * velocities.col(n);
   }
+  m_smooth_solves = h == m_last_dt ? std::min(m_smooth_solves + 1, 2) : 1;
+  m_last_dt = h;
   return status;
 }
 
@@ -396,6 +407,7 @@ void ImplicitIntegrator::precondition_system(const Eigen::VectorXd& r, Eigen::Ve
 
 void ImplicitIntegrator::correct_velocities(const Eigen::VectorXd& delta, double h) {
   FISSURE_ASSERT(delta.size() == system_size());
+  m_smooth_solves = 0;  // the next Δv answers a contact: do not extrapolate across it
   const auto free_count = static_cast<Index>(m_free_nodes.size());
   for (Index c = 0; c < free_count; ++c) {
     const NodeIndex n = m_free_nodes[c];
