@@ -115,7 +115,7 @@ Mat3 polar_rotation(const Mat3& F) {
 namespace {
 
 /// The batch's Newton iterations on lanes (q[k][lane]: entry k of lane's matrix,
-/// column-major). Returns, per lane, whether it converged; built for AVX2/FMA and for
+/// column-major). Sets, per lane, whether it converged; built for AVX2/FMA and for
 /// baseline x86-64 and chosen at load time (the same machine always takes the same one).
 __attribute__((target_clones("arch=x86-64-v3", "default"))) void polar_newton_lanes(
     double (&q)[9][kLanes], bool (&converged)[kLanes]) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <initializer_list>
 #include <random>
 
 #include "tests/support/procedural.h"
@@ -63,19 +64,21 @@ TEST(ImplicitIntegrator, EnergyNeverIncreasesWithoutExternalForces) {
   }
 }
 
+/// Clamps each body at the cage's x = 0 face (a cantilever).
+void pin_at_x0(const TetMesh& cage, std::initializer_list<ImplicitIntegrator*> bodies) {
+  for (Index n = 0; n < cage.node_count(); ++n) {
+    if (cage.rest_positions(0, n) != 0.0) continue;
+    for (ImplicitIntegrator* body : bodies) body->pin(n);
+  }
+}
+
 TEST(ImplicitIntegrator, DirectAndBothConjugateGradientPreconditionersAgree) {
   const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(2.0, 0.5, 0.5), 4, 2, 2);
   for (const StiffnessModel model : {StiffnessModel::Warped, StiffnessModel::Exact}) {
     ImplicitIntegrator direct(cage.rest_positions, cage.tets, Material{.youngs_modulus = 1e6});
     ImplicitIntegrator jacobi(cage.rest_positions, cage.tets, Material{.youngs_modulus = 1e6});
     ImplicitIntegrator lagged(cage.rest_positions, cage.tets, Material{.youngs_modulus = 1e6});
-    for (Index n = 0; n < cage.node_count(); ++n) {
-      if (cage.rest_positions(0, n) == 0.0) {
-        direct.pin(n);
-        jacobi.pin(n);
-        lagged.pin(n);
-      }
-    }
+    pin_at_x0(cage, {&direct, &jacobi, &lagged});
     StepSettings settings;
     settings.stiffness = model;
     StepSettings cg_jacobi = settings;
@@ -115,12 +118,7 @@ TEST(ImplicitIntegrator, ExtrapolatedWarmStartSavesIterationsOnASmoothMotionOnly
   settings.tolerance = 1e-4;
   ImplicitIntegrator smooth(cage.rest_positions, cage.tets, Material{.youngs_modulus = 1e6});
   ImplicitIntegrator corrected(cage.rest_positions, cage.tets, Material{.youngs_modulus = 1e6});
-  for (Index n = 0; n < cage.node_count(); ++n) {
-    if (cage.rest_positions(0, n) == 0.0) {
-      smooth.pin(n);
-      corrected.pin(n);
-    }
-  }
+  pin_at_x0(cage, {&smooth, &corrected});
   int smooth_iterations = 0, corrected_iterations = 0;
   for (int i = 0; i < 60; ++i) {
     ASSERT_EQ(smooth.step(settings), SolveStatus::Converged);
@@ -202,9 +200,7 @@ double cantilever_tip_deflection(int along, int across) {
   const double length = 4.0, side = 0.25;
   const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(length, side, side), along, across, across);
   ImplicitIntegrator beam(cage.rest_positions, cage.tets, Material{.density = 1000, .youngs_modulus = 1e9, .poisson_ratio = 0.3});
-  for (Index n = 0; n < cage.node_count(); ++n) {
-    if (cage.rest_positions(0, n) == 0.0) beam.pin(n);
-  }
+  pin_at_x0(cage, {&beam});
   StepSettings settings;
   settings.dt = 10.0;
   for (int i = 0; i < 40; ++i) {
@@ -259,9 +255,7 @@ std::uint64_t state_hash(const ImplicitIntegrator& body) {
 std::uint64_t hash_after_steps(LinearSolver solver) {
   const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(2.0, 0.5, 0.5), 8, 2, 2);
   ImplicitIntegrator body(cage.rest_positions, cage.tets, Material{.youngs_modulus = 1e6, .rayleigh_mass = 0.1});
-  for (Index n = 0; n < cage.node_count(); ++n) {
-    if (cage.rest_positions(0, n) == 0.0) body.pin(n);
-  }
+  pin_at_x0(cage, {&body});
   StepSettings settings;
   settings.solver = solver;
   for (int i = 0; i < 50; ++i) EXPECT_EQ(body.step(settings), SolveStatus::Converged);
