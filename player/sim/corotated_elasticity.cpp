@@ -57,6 +57,16 @@ double newton_scaling(double det) {
   return std::abs(offset) < 0.1 ? 1.0 - offset * (1.0 / 3.0 - offset * (2.0 / 9.0)) : 1.0 / std::cbrt(det);
 }
 
+/// The polar rotation by the signed SVD: where Newton does not apply (inverted, flat,
+/// collapsed) or did not converge. Eigen's SVD of a non-finite matrix returns arbitrary
+/// (not even repeatable) values: the NaN is passed on instead, for the step's
+/// non-finite check to report.
+Mat3 svd_rotation(const Mat3& F) {
+  if (!F.allFinite()) return Mat3::Constant(std::numeric_limits<double>::quiet_NaN());
+  const SignedSvd svd = signed_svd(F);
+  return svd.U * svd.V.transpose();
+}
+
 constexpr double kNewtonMinRelativeDeterminant = 1e-3;
 constexpr int kNewtonMaxIterations = 12;
 
@@ -105,11 +115,7 @@ Mat3 polar_rotation(const Mat3& F) {
       det = cofactors();
     }
   }
-  // Eigen's SVD of a non-finite matrix returns arbitrary (not even repeatable) values:
-  // pass the NaN on instead, for the step's non-finite check to report.
-  if (!F.allFinite()) return Mat3::Constant(std::numeric_limits<double>::quiet_NaN());
-  const SignedSvd svd = signed_svd(F);
-  return svd.U * svd.V.transpose();
+  return svd_rotation(F);
 }
 
 namespace {
@@ -186,7 +192,7 @@ void polar_rotations(const Mat3* F, Mat3* Q, int count) {
   polar_newton_lanes(q, converged);
   for (int l = 0; l < count; ++l) {
     if (!converged[l]) {
-      Q[l] = polar_rotation(F[l]);
+      Q[l] = svd_rotation(F[l]);  // Newton failed on this lane; the scalar one would too
       continue;
     }
     for (int k = 0; k < 9; ++k) Q[l].data()[k] = q[k][l];
@@ -502,9 +508,9 @@ void CorotatedElasticity::evaluate(const Matrix3Xd& x, StiffnessModel model, boo
       bool converged[L];
       std::copy(&F_lanes[0][0], &F_lanes[0][0] + 9 * L, &q[0][0]);
       polar_newton_lanes(q, converged);
-      for (int l = 0; l < L; ++l) {
+      for (int l = 0; l < size; ++l) {  // padding lanes' rotations are never read
         if (converged[l]) continue;
-        const Mat3 Q = polar_rotation(lane_matrix(F_lanes, l));
+        const Mat3 Q = svd_rotation(lane_matrix(F_lanes, l));
         for (int k = 0; k < 9; ++k) q[k][l] = Q.data()[k];
       }
     }
