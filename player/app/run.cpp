@@ -75,8 +75,8 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
   const double load_seconds = std::chrono::duration<double>(Clock::now() - load_start).count();
   std::size_t tets = 0, nodes = 0, spheres = 0, vertices = 0;
   for (const sim::Body& b : world.bodies()) {
-    tets += b.solver->elasticity().tet_count();
-    nodes += b.solver->node_count();
+    tets += b.integrator().elasticity().tet_count();
+    nodes += b.integrator().node_count();
     spheres += b.spheres.size();
     vertices += b.vertices.size();
   }
@@ -93,13 +93,13 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
     trajectory.step.push_back(static_cast<std::uint64_t>(step));
     for (std::size_t b = 0; b < world.bodies().size(); ++b) {
       trajectory.bodies[b].name = world.bodies()[b].name;
-      trajectory.bodies[b].frames.push_back(world.bodies()[b].solver->positions);
+      trajectory.bodies[b].frames.push_back(world.bodies()[b].integrator().positions());
     }
   };
   std::vector<std::vector<NodeIndex>> split_from(world.bodies().size());
   std::vector<Index> initial_nodes;
   for (std::size_t b = 0; b < world.bodies().size(); ++b) {
-    initial_nodes.push_back(world.bodies()[b].solver->node_count());
+    initial_nodes.push_back(world.bodies()[b].integrator().node_count());
     split_from[b].assign(initial_nodes.back(), kInvalidIndex);
   }
   const bool recording = !options.trajectory.empty();
@@ -115,6 +115,10 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
   for (long step = 1; step <= options.steps; ++step) {
     const auto step_start = Clock::now();
     const sim::StepReport r = world.step();
+    if (!r.status.ok()) {
+      const sim::StepFailure failure = world.explain(r.status);
+      throw Error(failure.message, failure.hint);
+    }
     phases.step.add(std::chrono::duration<double>(Clock::now() - step_start).count());
     phases.forces.add(r.forces);
     phases.assembly.add(r.assembly);
@@ -220,9 +224,9 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
       json.begin_object();
       json.key("name").value(body.name);
       json.key("bundle").value(loaded.bundle_names[b]);
-      json.key("tets").value(static_cast<std::uint64_t>(body.solver->elasticity().tet_count()));
+      json.key("tets").value(static_cast<std::uint64_t>(body.integrator().elasticity().tet_count()));
       json.key("nodes_initial").value(static_cast<std::uint64_t>(initial_nodes[b]));
-      json.key("nodes_final").value(static_cast<std::uint64_t>(body.solver->node_count()));
+      json.key("nodes_final").value(static_cast<std::uint64_t>(body.integrator().node_count()));
       json.key("spheres").value(static_cast<std::uint64_t>(body.spheres.size()));
       json.key("render_vertices").value(static_cast<std::uint64_t>(body.vertices.size()));
       json.key("fragments").value(static_cast<std::uint64_t>(body.topology.fragment_count()));
@@ -275,7 +279,7 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
   }
   if (recording) {
     for (std::size_t b = 0; b < world.bodies().size(); ++b) {
-      split_from[b].resize(world.bodies()[b].solver->node_count(), kInvalidIndex);
+      split_from[b].resize(world.bodies()[b].integrator().node_count(), kInvalidIndex);
       trajectory.bodies[b].split_from = split_from[b];
     }
     formats::write_trajectory(options.trajectory, trajectory);

@@ -69,7 +69,7 @@ Vec3 side_velocity(const Side& s, std::span<const CollisionBody> bodies, std::sp
     case Side::Kind::Projectile: return projectiles[s.owner].velocity;
     case Side::Kind::Embedded: {
       const CollisionBody& b = bodies[s.owner];
-      return embedded_position(b.body->velocities, b.body->elasticity().tets(), *b.points, s.point);
+      return embedded_position(b.body->velocities(), b.body->elasticity().tets(), *b.points, s.point);
     }
   }
   return Vec3::Zero();
@@ -243,20 +243,13 @@ double penetration(const Vec3& point, double radius, const Environment& environm
 }
 
 ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environment& environment,
-                                 std::span<Projectile> projectiles, double time, const CollisionSettings& settings) {
+                                 std::span<Projectile> projectiles, std::span<const Vec3> projectile_start,
+                                 const CollisionSettings& settings) {
   ContactCounts counts;
   const double h = settings.dt;
-  // Projectiles: launch, then move ballistically (symplectic Euler) over the step.
   std::vector<SweptPoint> projectile_sweep(projectiles.size());
   for (std::size_t j = 0; j < projectiles.size(); ++j) {
-    Projectile& p = projectiles[j];
-    if (!p.launched && p.launch_time <= time + 0.5 * h) p.launched = true;
-    const Vec3 start = p.position;
-    if (p.launched) {
-      p.velocity += h * settings.gravity;
-      p.position += h * p.velocity;
-    }
-    projectile_sweep[j] = {start, p.position, p.radius};
+    projectile_sweep[j] = {projectile_start[j], projectiles[j].position, projectiles[j].radius};
   }
   // Every embedded point's motion over the step, and each body's swept bounds.
   std::vector<std::vector<SweptPoint>> sweeps(bodies.size());
@@ -267,7 +260,7 @@ ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environm
     sweeps[bi].resize(b.points->size());
     for (std::size_t k = 0; k < b.points->size(); ++k) {
       sweeps[bi][k] = {embedded_position(*b.start_positions, tets, *b.points, k),
-                       embedded_position(b.body->positions, tets, *b.points, k), b.points->radius[k]};
+                       embedded_position(b.body->positions(), tets, *b.points, k), b.points->radius[k]};
       bounds[bi].add(sweeps[bi][k]);
     }
   }

@@ -30,53 +30,10 @@
 #include <span>
 #include <vector>
 
+#include "player/sim/environment.h"
 #include "player/sim/implicit_integrator.h"
 
 namespace fissure::sim {
-
-struct ContactMaterial {
-  double restitution = 0.2;  ///< in [0, 1]; pairs use the larger
-  double friction = 0.5;     ///< Coulomb μ ≥ 0; pairs use √(μa μb)
-};
-
-struct Plane {
-  Vec3 normal = Vec3::UnitZ();  ///< unit, pointing out of the solid half space
-  double offset = 0;            ///< the plane is normal · x = offset
-  ContactMaterial material;
-};
-struct Box {
-  Vec3 min, max;
-  ContactMaterial material;
-};
-struct Ball {
-  Vec3 center;
-  double radius = 0;
-  ContactMaterial material;
-};
-struct Environment {
-  std::optional<Plane> ground;
-  std::vector<Box> boxes;
-  std::vector<Ball> balls;
-};
-
-/// A rigid ball thrown into the scene (the thesis's ball that hits the armadillo).
-struct Projectile {
-  Vec3 position = Vec3::Zero();  ///< at launch, then current [m]
-  Vec3 velocity = Vec3::Zero();  ///< at launch, then current [m/s]
-  double radius = 0.1;
-  double mass = 1.0;
-  double launch_time = 0;        ///< [s]; absent from the scene before this
-  ContactMaterial material;
-  bool launched = false;
-};
-
-/// Points bound to a body's tets by barycentric coordinates.
-struct EmbeddedPoints {
-  std::vector<TetIndex> tet;
-  std::vector<Vec4> barycentric;
-  std::vector<double> radius;  ///< 0 for render vertices
-  [[nodiscard]] std::size_t size() const { return tet.size(); }
-};
 
 /// What collisions see of one deformable body.
 struct CollisionBody {
@@ -101,7 +58,7 @@ using ContactImpulses = std::map<ContactKey, double>;
 
 struct CollisionSettings {
   double dt = 1.0 / 240.0;
-  Vec3 gravity = Vec3(0, 0, -9.81);  ///< moves the projectiles
+  Vec3 gravity = Vec3(0, 0, -9.81);  ///< sets the resting speed (no restitution below 2 |g| h)
   bool self_collision = false;       ///< between fragments and between bodies
   int iterations = 8;                ///< augmented-Lagrangian iterations of the response, at most
   ContactImpulses* impulses = nullptr;  ///< in: last step's impulses (warm start); out: this step's
@@ -117,10 +74,12 @@ struct ContactCounts {
   std::size_t response_iterations = 0;  ///< conjugate-gradient iterations of the contact response
 };
 
-/// Launches due projectiles, moves them over the step, then finds and resolves every
-/// contact. `time` is the simulation time at the start of the step.
+/// Finds and resolves every contact of the step. The bodies have been solved and the
+/// launched projectiles moved (World) from `projectile_start` (one per projectile) to
+/// their positions; the response corrects both.
 ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environment& environment,
-                                 std::span<Projectile> projectiles, double time, const CollisionSettings& settings);
+                                 std::span<Projectile> projectiles, std::span<const Vec3> projectile_start,
+                                 const CollisionSettings& settings);
 
 /// Earliest s ∈ [0, 1] at which two points moving linearly (a0 → a1, b0 → b1) come
 /// within `distance`; 0 when they start within it, nullopt when they never do.
@@ -131,12 +90,5 @@ std::optional<double> time_of_impact(const Vec3& a0, const Vec3& a1, const Vec3&
 /// launched projectiles (0 when clear) [m].
 double penetration(const Vec3& point, double radius, const Environment& environment,
                    std::span<const Projectile> projectiles);
-
-/// World position of embedded point k.
-inline Vec3 embedded_position(const Matrix3Xd& x, const Matrix4Xu& tets, const EmbeddedPoints& points, std::size_t k) {
-  const TetIndex t = points.tet[k];
-  const Vec4& b = points.barycentric[k];
-  return b[0] * x.col(tets(0, t)) + b[1] * x.col(tets(1, t)) + b[2] * x.col(tets(2, t)) + b[3] * x.col(tets(3, t));
-}
 
 }  // namespace fissure::sim

@@ -235,7 +235,7 @@ class JointSystem {
     if (s.kind != ContactSide::Kind::Embedded) return Vec3::Zero();
     const ImplicitIntegrator& body = *m_bodies[s.owner].body;
     Vec3 v = Vec3::Zero();
-    for (int i = 0; i < 4; ++i) v += s.weight[i] * body.velocities.col(body.elasticity().tets()(i, s.tet));
+    for (int i = 0; i < 4; ++i) v += s.weight[i] * body.velocities().col(body.elasticity().tets()(i, s.tet));
     return v;
   }
 

@@ -313,6 +313,13 @@ double CorotatedElasticity::energy(const Matrix3Xd& x) const {
   return total;
 }
 
+void CorotatedElasticity::deformation_gradients(const Matrix3Xd& x, std::vector<Mat3>& out) const {
+  out.resize(tet_count());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tet_count(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t t = r.begin(); t != r.end(); ++t) out[t] = deformation_gradient(x, static_cast<TetIndex>(t));
+  });
+}
+
 void CorotatedElasticity::rotations(const Matrix3Xd& x, std::vector<Mat3>& out) const {
   out.resize(tet_count());
   for (TetIndex t = 0; t < tet_count(); ++t) out[t] = polar_rotation(deformation_gradient(x, t));

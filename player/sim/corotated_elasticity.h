@@ -84,6 +84,9 @@ class CorotatedElasticity {
   /// Elastic energy [J] at positions x (3×#N).
   [[nodiscard]] double energy(const Matrix3Xd& x) const;
 
+  /// Deformation gradients F of every tet at x, in parallel.
+  void deformation_gradients(const Matrix3Xd& x, std::vector<Mat3>& out) const;
+
   /// Rotations Q of every tet at x.
   void rotations(const Matrix3Xd& x, std::vector<Mat3>& out) const;
 

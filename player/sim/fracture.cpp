@@ -32,7 +32,7 @@ Mat3 outer_over_norm(const Vec3& v) {
 
 FractureTopology::FractureTopology(const Matrix4Xu& tets, Index node_count)
     : m_incident(node_count), m_neighbour(4 * static_cast<std::size_t>(tets.cols())),
-      m_exposed(4 * static_cast<std::size_t>(tets.cols()), 1), m_fragment(static_cast<std::size_t>(tets.cols()), 0) {
+      m_face_state(4 * static_cast<std::size_t>(tets.cols()), FaceState::RestBoundary), m_fragment(static_cast<std::size_t>(tets.cols()), 0) {
   const auto tet_count = static_cast<TetIndex>(tets.cols());
   for (TetIndex t = 0; t < tet_count; ++t) {
     for (int corner = 0; corner < 4; ++corner) m_incident[tets(corner, t)].emplace_back(t, corner);
@@ -51,10 +51,11 @@ FractureTopology::FractureTopology(const Matrix4Xu& tets, Index node_count)
     const TetFace a = faces[i].second, b = faces[i + 1].second;
     m_neighbour[4 * a.tet + static_cast<Index>(a.face)] = b;
     m_neighbour[4 * b.tet + static_cast<Index>(b.face)] = a;
-    m_exposed[4 * a.tet + static_cast<Index>(a.face)] = 0;
-    m_exposed[4 * b.tet + static_cast<Index>(b.face)] = 0;
+    m_face_state[4 * a.tet + static_cast<Index>(a.face)] = FaceState::Interior;
+    m_face_state[4 * b.tet + static_cast<Index>(b.face)] = FaceState::Interior;
   }
-  m_exposed_count = static_cast<std::size_t>(std::count(m_exposed.begin(), m_exposed.end(), 1));
+  m_exposed_count =
+      static_cast<std::size_t>(std::count(m_face_state.begin(), m_face_state.end(), FaceState::RestBoundary));
   update_fragments(tets);
 }
 
@@ -77,16 +78,43 @@ void FractureTopology::on_split(NodeIndex node, NodeIndex added, std::span<const
       if (k == corner) continue;  // the face opposite the node does not contain it
       const TetFace face{t, k};
       const Index slot = 4 * t + static_cast<Index>(k);
-      if (m_exposed[slot]) continue;
+      if (m_face_state[slot] != FaceState::Interior) continue;
       const TetFace other = m_neighbour[slot];
       if (faces_match(face, other, tets)) continue;
-      m_exposed[slot] = 1;
-      m_exposed[4 * other.tet + static_cast<Index>(other.face)] = 1;
+      m_face_state[slot] = FaceState::Fractured;
+      m_face_state[4 * other.tet + static_cast<Index>(other.face)] = FaceState::Fractured;
       m_exposed_count += 2;
       newly_exposed.push_back(face);
       newly_exposed.push_back(other);
     }
   }
+  ++m_version;
+}
+
+void FractureTopology::undo_split(NodeIndex node, NodeIndex added, const Matrix4Xu& tets) {
+  FISSURE_ASSERT(added + 1 == m_incident.size());
+  const std::vector<std::pair<TetIndex, int>> moved = std::move(m_incident[added]);
+  m_incident.pop_back();
+  // Both lists are sorted (the constructor fills them in tet order and splits keep
+  // it), so the merge puts every slot back where it was.
+  auto& slots = m_incident[node];
+  const auto middle = static_cast<std::ptrdiff_t>(slots.size());
+  slots.insert(slots.end(), moved.begin(), moved.end());
+  std::inplace_merge(slots.begin(), slots.begin() + middle, slots.end());
+  // A fractured face whose two sides share their nodes again was opened by this split:
+  // faces never rejoin otherwise, as every split gives one side a new node.
+  for (const auto& [t, corner] : moved) {
+    for (int k = 0; k < 4; ++k) {
+      const Index slot = 4 * t + static_cast<Index>(k);
+      if (k == corner || m_face_state[slot] != FaceState::Fractured) continue;
+      const TetFace other = m_neighbour[slot];
+      if (!faces_match({t, k}, other, tets)) continue;
+      m_face_state[slot] = FaceState::Interior;
+      m_face_state[4 * other.tet + static_cast<Index>(other.face)] = FaceState::Interior;
+      m_exposed_count -= 2;
+    }
+  }
+  --m_version;
 }
 
 bool FractureTopology::update_fragments(const Matrix4Xu& tets) {
@@ -210,11 +238,11 @@ void fracture(ImplicitIntegrator& body, FractureTopology& topology, const Fractu
   for (const NodeIndex node : candidates) {
     if (done >= settings.max_splits_per_step) break;
     const Vec3 normal = field.direction[node];
-    const Vec3 origin = body.positions.col(node);
+    const Vec3 origin = body.positions().col(node);
     positive_side.clear();
     for (const auto& slot : topology.incident(node)) {
       Vec3 centroid = Vec3::Zero();
-      for (int i = 0; i < 4; ++i) centroid += 0.25 * body.positions.col(tets(i, slot.first));
+      for (int i = 0; i < 4; ++i) centroid += 0.25 * body.positions().col(tets(i, slot.first));
       if (normal.dot(centroid - origin) > 0.0) positive_side.push_back(slot);
     }
     // All tets on one side: the plane does not separate anything at this node.

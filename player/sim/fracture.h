@@ -25,6 +25,13 @@ struct TetFace {
   friend bool operator==(const TetFace&, const TetFace&) = default;
 };
 
+/// What one tet face is, as far as rendering and contacts care.
+enum class FaceState : std::uint8_t {
+  Interior = 0,      ///< shared with another tet
+  RestBoundary = 1,  ///< on the cage's boundary at rest
+  Fractured = 2,     ///< shared at rest, split apart since: a wall shows here
+};
+
 /// Connectivity of a body as it fractures: which faces are exposed (on the boundary
 /// now: never shared at rest, or split apart since) and which fragment (connected
 /// component through shared nodes) each tet is in.
@@ -32,23 +39,32 @@ class FractureTopology {
  public:
   explicit FractureTopology(const Matrix4Xu& tets, Index node_count);
 
-  /// The (tet, corner) slots that hold `node`.
+  /// The (tet, corner) slots that hold `node`, sorted by tet then corner.
   [[nodiscard]] const std::vector<std::pair<TetIndex, int>>& incident(NodeIndex node) const {
     return m_incident[node];
   }
-  [[nodiscard]] bool exposed(TetFace f) const { return m_exposed[4 * f.tet + static_cast<Index>(f.face)] != 0; }
+  [[nodiscard]] bool exposed(TetFace f) const { return face_state(f) != FaceState::Interior; }
+  [[nodiscard]] FaceState face_state(TetFace f) const { return m_face_state[4 * f.tet + static_cast<Index>(f.face)]; }
+  /// 4 per tet, face k opposite corner k.
+  [[nodiscard]] const std::vector<FaceState>& face_states() const { return m_face_state; }
   [[nodiscard]] std::size_t exposed_face_count() const { return m_exposed_count; }
   /// The tet that shared face f at rest (tet kInvalidIndex on the rest boundary).
   [[nodiscard]] TetFace rest_neighbour(TetFace f) const { return m_neighbour[4 * f.tet + static_cast<Index>(f.face)]; }
 
   [[nodiscard]] const std::vector<Index>& tet_fragment() const { return m_fragment; }
   [[nodiscard]] Index fragment_count() const { return m_fragment_count; }
+  /// Changes exactly when connectivity does (a split, or its undo): a renderer that
+  /// keeps the tets uploads them again only then.
+  [[nodiscard]] std::uint64_t version() const { return m_version; }
 
   /// Records that `moved` slots now hold `added` instead of `node`; appends the faces
   /// this exposed to `newly_exposed`. Fragments are not updated: call update_fragments()
   /// once after a batch of splits.
   void on_split(NodeIndex node, NodeIndex added, std::span<const std::pair<TetIndex, int>> moved,
                 const Matrix4Xu& tets, std::vector<TetFace>& newly_exposed);
+  /// Undoes the newest on_split; `tets` must already hold `node` again in its slots
+  /// (ImplicitIntegrator::undo_split). Call update_fragments() after a batch.
+  void undo_split(NodeIndex node, NodeIndex added, const Matrix4Xu& tets);
   /// Recomputes fragment ids (smallest tet index first, so ids are stable and
   /// deterministic). O(#T); returns whether the count changed.
   bool update_fragments(const Matrix4Xu& tets);
@@ -58,10 +74,11 @@ class FractureTopology {
 
   std::vector<std::vector<std::pair<TetIndex, int>>> m_incident;
   std::vector<TetFace> m_neighbour;      ///< 4 per tet
-  std::vector<std::uint8_t> m_exposed;   ///< 4 per tet
+  std::vector<FaceState> m_face_state;   ///< 4 per tet
   std::size_t m_exposed_count = 0;
   std::vector<Index> m_fragment;
   Index m_fragment_count = 1;
+  std::uint64_t m_version = 0;
 };
 
 struct FractureSettings {

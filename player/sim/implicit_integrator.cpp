@@ -45,8 +45,8 @@ const char* to_string(SolveStatus status) {
 
 ImplicitIntegrator::ImplicitIntegrator(const Matrix3Xd& rest, const Matrix4Xu& tets, const Material& material,
                                        const MassDistribution* mass)
-    : positions(rest),
-      velocities(Matrix3Xd::Zero(3, rest.cols())),
+    : m_positions(rest),
+      m_velocities(Matrix3Xd::Zero(3, rest.cols())),
       m_elasticity(rest, tets, material),
       m_material(material),
       m_rest(rest),
@@ -76,7 +76,7 @@ ImplicitIntegrator::ImplicitIntegrator(const Matrix3Xd& rest, const Matrix4Xu& t
 }
 
 void ImplicitIntegrator::lump_masses() {
-  m_mass = Eigen::VectorXd::Zero(positions.cols());
+  m_mass = Eigen::VectorXd::Zero(m_positions.cols());
   const Matrix4Xu& tets = m_elasticity.tets();
   for (TetIndex t = 0; t < m_elasticity.tet_count(); ++t) {
     for (int i = 0; i < 4; ++i) m_mass[tets(i, t)] += m_tet_mass[t] * m_corner_weight[t][i];
@@ -95,7 +95,7 @@ void ImplicitIntegrator::pin(std::span<const NodeIndex> nodes) {
                   "node indices are 0-based cage node numbers");
     }
     m_pinned[node] = 1;
-    velocities.col(node).setZero();
+    m_velocities.col(node).setZero();
   }
   m_smooth_solves = 0;
   m_pattern_dirty = true;
@@ -108,8 +108,8 @@ NodeIndex ImplicitIntegrator::split_node(NodeIndex node, std::span<const std::pa
     m.conservativeResize(Eigen::NoChange, m.cols() + 1);
     m.col(added) = m.col(node);
   };
-  grow(positions);
-  grow(velocities);
+  grow(m_positions);
+  grow(m_velocities);
   grow(m_rest);
   grow(m_last_dv);
   grow(m_previous_dv);
@@ -122,6 +122,73 @@ NodeIndex ImplicitIntegrator::split_node(NodeIndex node, std::span<const std::pa
   m_pattern_dirty = true;
   m_system_form = SystemForm::None;
   return added;
+}
+
+void ImplicitIntegrator::undo_split(NodeIndex node, NodeIndex added) {
+  FISSURE_ASSERT(added + 1 == node_count() && node < added);
+  const Matrix4Xu& tets = m_elasticity.tets();
+  for (TetIndex t = 0; t < m_elasticity.tet_count(); ++t) {
+    for (int corner = 0; corner < 4; ++corner) {
+      if (tets(corner, t) == added) m_elasticity.replace_node(t, corner, node);
+    }
+  }
+  const auto shrink = [](Matrix3Xd& m) { m.conservativeResize(Eigen::NoChange, m.cols() - 1); };
+  shrink(m_positions);
+  shrink(m_velocities);
+  shrink(m_rest);
+  shrink(m_last_dv);
+  shrink(m_previous_dv);
+  m_pinned.pop_back();
+  lump_masses();
+  m_pattern_dirty = true;
+  m_system_form = SystemForm::None;
+}
+
+void ImplicitIntegrator::save(Checkpoint& out) const {
+  out.positions = m_positions;
+  out.velocities = m_velocities;
+  out.last_dv = m_last_dv;
+  out.previous_dv = m_previous_dv;
+  out.smooth_solves = m_smooth_solves;
+  out.iterations = m_iterations;
+  out.last_dt = m_last_dt;
+}
+
+void ImplicitIntegrator::restore(const Checkpoint& checkpoint) {
+  FISSURE_ASSERT(checkpoint.positions.cols() == node_count());
+  m_positions = checkpoint.positions;
+  m_velocities = checkpoint.velocities;
+  m_last_dv = checkpoint.last_dv;
+  m_previous_dv = checkpoint.previous_dv;
+  m_smooth_solves = checkpoint.smooth_solves;
+  m_iterations = checkpoint.iterations;
+  m_last_dt = checkpoint.last_dt;
+  m_system_form = SystemForm::None;
+}
+
+void ImplicitIntegrator::set_positions(const Matrix3Xd& x) {
+  check_state(x, "positions");
+  m_positions = x;
+  m_smooth_solves = 0;
+  m_system_form = SystemForm::None;
+}
+
+void ImplicitIntegrator::set_velocities(const Matrix3Xd& v) {
+  check_state(v, "velocities");
+  m_velocities = v;
+  for (Index n = 0; n < node_count(); ++n) {
+    if (m_pinned[n]) m_velocities.col(n).setZero();
+  }
+  m_smooth_solves = 0;
+}
+
+void ImplicitIntegrator::check_state(const Matrix3Xd& m, const char* what) const {
+  if (m.rows() != 3 || m.cols() != node_count()) {
+    throw Error(std::string(what) + " are " + std::to_string(m.rows()) + "×" + std::to_string(m.cols()) +
+                    " for a body of " + std::to_string(node_count()) + " nodes",
+                "pass one column per node");
+  }
+  if (!m.allFinite()) throw Error(std::string(what) + " hold a non-finite value", "pass finite values");
 }
 
 void ImplicitIntegrator::build_pattern() {
@@ -236,7 +303,7 @@ SolveStatus ImplicitIntegrator::step(const StepSettings& settings) {
 
 void ImplicitIntegrator::evaluate(const StepSettings& settings, bool with_stress) {
   const auto start = Clock::now();
-  m_elasticity.evaluate(positions, settings.stiffness, with_stress, m_elements);
+  m_elasticity.evaluate(m_positions, settings.stiffness, with_stress, m_elements);
   m_system_form = SystemForm::None;
   m_phase_times.forces = seconds_since(start);
 }
@@ -266,7 +333,7 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
   parallel_for_batches<std::size_t>(tet_count, 512, [&](std::size_t first, int size) {
     Mat34 v[kLanes], kv[kLanes];
     for (int l = 0; l < size; ++l) {
-      for (int j = 0; j < 4; ++j) v[l].col(j) = velocities.col(tets(j, first + l));
+      for (int j = 0; j < 4; ++j) v[l].col(j) = m_velocities.col(tets(j, first + l));
     }
     m_elasticity.stiffness_times(static_cast<TetIndex>(first), size, m_elements, v, kv);
     for (int l = 0; l < size; ++l) m_tet_rhs[first + l] = m_elements.forces[first + l] + (beta + h) * kv[l];
@@ -275,7 +342,7 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
   tbb::parallel_for(tbb::blocked_range<Index>(0, free_count, 64), [&](const tbb::blocked_range<Index>& range) {
     for (Index c = range.begin(); c != range.end(); ++c) {
       const NodeIndex n = m_free_nodes[c];
-      Vec3 sum = h * m_mass[n] * (s.gravity - alpha * velocities.col(n));
+      Vec3 sum = h * m_mass[n] * (s.gravity - alpha * m_velocities.col(n));
       for (Index k = m_incidence_start[c]; k < m_incidence_start[c + 1]; ++k) {
         const auto& [t, corner] = m_incidence[k];
         sum += h * m_tet_rhs[t].col(corner);
@@ -344,8 +411,8 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
     const NodeIndex n = m_free_nodes[c];
     m_previous_dv.col(n) = m_last_dv.col(n);
     m_last_dv.col(n) = dv.segment<3>(3 * c);
-    velocities.col(n) += dv.segment<3>(3 * c);
-    positions.col(n) += h * velocities.col(n);
+    m_velocities.col(n) += dv.segment<3>(3 * c);
+    m_positions.col(n) += h * m_velocities.col(n);
   }
   m_smooth_solves = h == m_last_dt ? std::min(m_smooth_solves + 1, 2) : 1;
   m_last_dt = h;
@@ -413,8 +480,8 @@ void ImplicitIntegrator::correct_velocities(const Eigen::VectorXd& delta, double
     const NodeIndex n = m_free_nodes[c];
     const Vec3 d = delta.segment<3>(3 * c);
     m_last_dv.col(n) += d;
-    velocities.col(n) += d;
-    positions.col(n) += h * d;
+    m_velocities.col(n) += d;
+    m_positions.col(n) += h * d;
   }
 }
 
@@ -495,15 +562,15 @@ void ImplicitIntegrator::update_node_rotations() {
 
 double ImplicitIntegrator::kinetic_energy() const {
   double kinetic = 0.0;
-  for (Index n = 0; n < node_count(); ++n) kinetic += 0.5 * m_mass[n] * velocities.col(n).squaredNorm();
+  for (Index n = 0; n < node_count(); ++n) kinetic += 0.5 * m_mass[n] * m_velocities.col(n).squaredNorm();
   return kinetic;
 }
 
-double ImplicitIntegrator::energy() const { return kinetic_energy() + m_elasticity.energy(positions); }
+double ImplicitIntegrator::energy() const { return kinetic_energy() + m_elasticity.energy(m_positions); }
 
 Vec3 ImplicitIntegrator::angular_momentum() const {
   Vec3 l = Vec3::Zero();
-  for (Index n = 0; n < node_count(); ++n) l += m_mass[n] * positions.col(n).cross(velocities.col(n));
+  for (Index n = 0; n < node_count(); ++n) l += m_mass[n] * m_positions.col(n).cross(m_velocities.col(n));
   return l;
 }
 

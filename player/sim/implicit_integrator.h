@@ -74,10 +74,15 @@ class ImplicitIntegrator {
   ImplicitIntegrator(const ImplicitIntegrator&) = delete;
   ImplicitIntegrator& operator=(const ImplicitIntegrator&) = delete;
 
-  Matrix3Xd positions;   ///< 3×#N current [m]
-  Matrix3Xd velocities;  ///< 3×#N current [m/s]
+  [[nodiscard]] const Matrix3Xd& positions() const { return m_positions; }    ///< 3×#N current [m]
+  [[nodiscard]] const Matrix3Xd& velocities() const { return m_velocities; }  ///< 3×#N current [m/s]
+  /// Replace the state (a scene's initial velocities, a test's deformed start). The
+  /// next conjugate-gradient solve does not extrapolate across the jump. Throws
+  /// fissure::Error when the size is not 3×#N or a value is not finite.
+  void set_positions(const Matrix3Xd& x);
+  void set_velocities(const Matrix3Xd& v);
 
-  [[nodiscard]] Index node_count() const { return static_cast<Index>(positions.cols()); }
+  [[nodiscard]] Index node_count() const { return static_cast<Index>(m_positions.cols()); }
   [[nodiscard]] const Matrix3Xd& rest_positions() const { return m_rest; }
   [[nodiscard]] const Eigen::VectorXd& node_masses() const { return m_mass; }
   [[nodiscard]] double tet_mass(TetIndex t) const { return m_tet_mass[t]; }
@@ -95,6 +100,24 @@ class ImplicitIntegrator {
   /// takes the given (tet, corner) slots, which must currently hold `node`. Masses are
   /// re-lumped, so momentum is unchanged. Returns the new node's index.
   NodeIndex split_node(NodeIndex node, std::span<const std::pair<TetIndex, int>> slots);
+
+  /// Undoes the last split_node (which returned `added`): its slots go back to `node`,
+  /// the node is removed and masses re-lumped, exactly as before the split. Splits must
+  /// be undone newest first.
+  void undo_split(NodeIndex node, NodeIndex added);
+
+  /// Everything a step changes but the topology (see undo_split): taken before a step,
+  /// put back when it fails, so the body is exactly as it was, warm start included.
+  /// The lagged factor is a cache and is not saved: a failed step that refreshed it, or
+  /// split a node, leaves a fresh factor to be made on the next solve.
+  struct Checkpoint {
+    Matrix3Xd positions, velocities, last_dv, previous_dv;
+    int smooth_solves = 0, iterations = 0;
+    double last_dt = 0;
+  };
+  void save(Checkpoint& out) const;
+  /// Restores a checkpoint taken with the current node count (undo splits first).
+  void restore(const Checkpoint& checkpoint);
 
   /// Advances one step: evaluate() then solve(). On anything but Converged or
   /// MaxIterations the state is left unchanged, so the caller can retry with a smaller dt.
@@ -143,7 +166,7 @@ class ImplicitIntegrator {
   /// Total kinetic + elastic energy [J] (no gravity).
   [[nodiscard]] double energy() const;
   [[nodiscard]] double kinetic_energy() const;
-  [[nodiscard]] Vec3 linear_momentum() const { return velocities * m_mass; }
+  [[nodiscard]] Vec3 linear_momentum() const { return m_velocities * m_mass; }
   [[nodiscard]] Vec3 angular_momentum() const;  ///< about the origin
 
  private:
@@ -157,7 +180,10 @@ class ImplicitIntegrator {
   /// Block `block` of −K from the last evaluate(), summed over its terms in tet order.
   [[nodiscard]] Mat3 stiffness_block(Index block) const;
   void lump_masses();
+  void check_state(const Matrix3Xd& m, const char* what) const;
 
+  Matrix3Xd m_positions;
+  Matrix3Xd m_velocities;
   CorotatedElasticity m_elasticity;
   Material m_material;
   Matrix3Xd m_rest;

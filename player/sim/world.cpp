@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "common/assert.h"
 #include "common/error.h"
 #include "common/tet_mesh.h"
 
@@ -39,6 +40,12 @@ EmbeddedPoints inscribed_spheres(const Matrix3Xd& rest, const Matrix4Xu& tets) {
   return points;
 }
 
+void check_time_step(double dt) {
+  if (!(dt > 0.0) || !std::isfinite(dt)) {
+    throw Error("time step " + std::to_string(dt) + " s is not positive", "use dt > 0, e.g. 1/240");
+  }
+}
+
 void check_points(const EmbeddedPoints& points, std::size_t tet_count, const std::string& what) {
   if (points.barycentric.size() != points.size() || points.radius.size() != points.size()) {
     throw Error(what + ": tet, barycentric and radius arrays differ in length", "rebake the bundle");
@@ -56,9 +63,7 @@ void check_points(const EmbeddedPoints& points, std::size_t tet_count, const std
 World::World(std::vector<BodyDescription> bodies, Environment environment, std::vector<Projectile> projectiles,
              WorldSettings settings)
     : m_environment(std::move(environment)), m_projectiles(std::move(projectiles)), m_settings(settings) {
-  if (!(settings.step.dt > 0.0) || !std::isfinite(settings.step.dt)) {
-    throw Error("time step " + std::to_string(settings.step.dt) + " s is not positive", "use dt > 0, e.g. 1/240");
-  }
+  check_time_step(settings.step.dt);
   m_bodies.reserve(bodies.size());
   for (BodyDescription& d : bodies) {
     const std::string where = "body '" + d.name + "'";
@@ -67,7 +72,8 @@ World::World(std::vector<BodyDescription> bodies, Environment environment, std::
     }
     validate(d.material, where + " material");
     auto solver = std::make_unique<ImplicitIntegrator>(d.rest, d.tets, d.material, d.mass ? &*d.mass : nullptr);
-    if (d.velocity.cols() == d.rest.cols()) solver->velocities = d.velocity;
+    if (d.positions.size() > 0) solver->set_positions(d.positions);
+    if (d.velocity.size() > 0) solver->set_velocities(d.velocity);
     solver->pin(d.pinned);
     const auto tet_count = static_cast<std::size_t>(d.tets.cols());
     EmbeddedPoints spheres = d.spheres.size() > 0 ? std::move(d.spheres) : inscribed_spheres(d.rest, d.tets);
@@ -77,108 +83,243 @@ World::World(std::vector<BodyDescription> bodies, Environment environment, std::
       throw Error(where + " has no render vertices for the exact collision mode", "use collision_mode = \"spheres\"");
     }
     FractureTopology topology(d.tets, static_cast<Index>(d.rest.cols()));
-    m_bodies.push_back(Body{d.name, std::move(solver), std::move(topology),
-                            FractureSettings{d.toughness, settings.max_splits_per_step}, d.contact, std::move(spheres),
-                            std::move(d.vertices)});
+    m_bodies.emplace_back(d.name, std::move(solver), std::move(topology),
+                          FractureSettings{d.toughness, settings.max_splits_per_step}, d.contact, std::move(spheres),
+                          std::move(d.vertices));
   }
   m_start_positions.resize(m_bodies.size());
+  m_checkpoint.bodies.resize(m_bodies.size());
+  for (const Body& b : m_bodies) m_previous_positions.push_back(b.integrator().positions());
+  m_deformation.resize(m_bodies.size());
+  m_deformation_step.assign(m_bodies.size(), 0);
+}
+
+Body::Body(std::string name_, std::unique_ptr<ImplicitIntegrator> integrator, FractureTopology topology_,
+           FractureSettings fracture_, ContactMaterial contact_, EmbeddedPoints spheres_, EmbeddedPoints vertices_)
+    : name(std::move(name_)),
+      topology(std::move(topology_)),
+      fracture(fracture_),
+      contact(contact_),
+      spheres(std::move(spheres_)),
+      vertices(std::move(vertices_)),
+      m_integrator(std::move(integrator)) {}
+
+const char* to_string(StepOutcome outcome) {
+  switch (outcome) {
+    case StepOutcome::Converged: return "converged";
+    case StepOutcome::Substepped: return "substepped";
+    case StepOutcome::SolveFailed: return "solve failed at the smallest step";
+    case StepOutcome::NonFinite: return "non-finite state";
+  }
+  return "unknown";
 }
 
 StepReport World::step() {
   StepReport report;
   report.substeps = 0;
-  advance(m_settings.step.dt, report, 0);
+  m_checkpoint.time = m_time;
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_bodies[bi].integrator().save(m_checkpoint.bodies[bi]);
+  m_checkpoint.projectiles = m_projectiles;
+  m_checkpoint.impulses = m_contact_impulses;
+  report.status = advance(m_settings.step.dt, report, 0);
+  if (report.status.ok()) {
+    if (const std::optional<Index> bad = first_non_finite(); bad) {
+      report.status = {StepOutcome::NonFinite, *bad, SolveStatus::NonFinite, m_checkpoint.time, m_settings.step.dt};
+    } else if (report.substeps > 1) {
+      report.status.outcome = StepOutcome::Substepped;
+    }
+  }
+  if (!report.status.ok()) {
+    roll_back(report);
+    return report;
+  }
+  keep_previous_positions(report);
+  ++m_steps;
   return report;
 }
 
-void World::advance(double dt, StepReport& report, int depth) {
+StepStatus World::advance(double dt, StepReport& report, int depth) {
   StepSettings step = m_settings.step;
   step.dt = dt;
-  auto start = Clock::now();
   for (Body& b : m_bodies) {
-    b.solver->evaluate(step, m_settings.fracture && depth == 0 && std::isfinite(b.fracture.toughness));
-    report.forces += b.solver->last_phase_times().forces;
+    b.integrator().evaluate(step, m_settings.fracture && depth == 0 && std::isfinite(b.fracture.toughness));
+    report.forces += b.integrator().last_phase_times().forces;
   }
-  if (m_settings.fracture && depth == 0) {
-    start = Clock::now();
-    for (Index bi = 0; bi < m_bodies.size(); ++bi) {
-      Body& b = m_bodies[bi];
-      if (!std::isfinite(b.fracture.toughness)) continue;
-      std::vector<NodeSplit> splits;
-      std::vector<TetFace> exposed;
-      fracture(*b.solver, b.topology, b.fracture, splits, exposed);
-      for (const NodeSplit& s : splits) report.splits.emplace_back(bi, s);
-      for (const TetFace& f : exposed) report.exposed.emplace_back(bi, f);
-    }
-    report.fracture += seconds_since(start);
-  }
-  std::vector<Matrix3Xd> start_velocities(m_bodies.size());
-  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
-    m_start_positions[bi] = m_bodies[bi].solver->positions;
-    start_velocities[bi] = m_bodies[bi].solver->velocities;
-  }
-  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
-    Body& b = m_bodies[bi];
-    const int factorizations_before = b.solver->factorizations();
-    const SolveStatus status = b.solver->solve(step);
-    report.factorizations += b.solver->factorizations() - factorizations_before;
-    report.assembly += b.solver->last_phase_times().assembly;
-    report.solve += b.solver->last_phase_times().solve;
-    report.solver_iterations += b.solver->last_iterations();
-    if (status == SolveStatus::MaxIterations) report.unconverged = true;
-    if (status == SolveStatus::Converged || status == SolveStatus::MaxIterations) continue;
-    // Undo the bodies already advanced, then retry as two half steps.
-    for (std::size_t bj = 0; bj < bi; ++bj) {
-      m_bodies[bj].solver->positions = m_start_positions[bj];
-      m_bodies[bj].solver->velocities = start_velocities[bj];
-    }
+  if (m_settings.fracture && depth == 0) fracture_bodies(report);
+  const StepStatus solved = solve_bodies(step, report);
+  if (!solved.ok()) {
     if (m_settings.min_dt > 0.0 && 0.5 * dt >= m_settings.min_dt) {
-      advance(0.5 * dt, report, depth + 1);
-      advance(0.5 * dt, report, depth + 1);
-      return;
+      const StepStatus first = advance(0.5 * dt, report, depth + 1);
+      return first.ok() ? advance(0.5 * dt, report, depth + 1) : first;
     }
-    throw Error("at t = " + std::to_string(m_time) + " s, body '" + b.name + "': the implicit solve failed (" +
-                    to_string(status) + ") at dt = " + std::to_string(dt) + " s",
-                m_settings.min_dt > 0.0 ? "lower solver.min_dt, or use a smaller solver.dt"
-                                        : "set solver.min_dt to let steps halve, or use a smaller solver.dt");
+    return solved;
   }
   ++report.substeps;
-  if (m_settings.collisions) {
-    start = Clock::now();
-    std::vector<CollisionBody> collision_bodies;
-    collision_bodies.reserve(m_bodies.size());
-    for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
-      Body& b = m_bodies[bi];
-      collision_bodies.push_back({b.solver.get(), &b.collision_points(m_settings.collision_points), &m_start_positions[bi],
-                                  &b.topology.tet_fragment(), b.contact});
-    }
-    CollisionSettings cs;
-    cs.dt = dt;
-    cs.gravity = m_settings.step.gravity;
-    cs.self_collision = m_settings.self_collision;
-    cs.iterations = m_settings.contact_iterations;
-    cs.impulses = &m_contact_impulses;
-    const ContactCounts counts = resolve_collisions(collision_bodies, m_environment, m_projectiles, m_time, cs);
-    report.contacts.contacts += counts.contacts;
-    report.contacts.swept += counts.swept;
-    report.contacts.pairs_tested += counts.pairs_tested;
-    report.contacts.response_iterations += counts.response_iterations;
-    report.collisions += seconds_since(start);
-  } else {
-    // Projectiles still fly when nothing collides.
-    for (Projectile& p : m_projectiles) {
-      if (!p.launched && p.launch_time <= m_time + 0.5 * dt) p.launched = true;
-      if (!p.launched) continue;
-      p.velocity += dt * m_settings.step.gravity;
-      p.position += dt * p.velocity;
-    }
-  }
+  launch_and_move_projectiles(dt);
+  if (m_settings.collisions) collide(dt, report);
   m_time += dt;
+  return {};
+}
+
+void World::fracture_bodies(StepReport& report) {
+  const auto start = Clock::now();
+  for (Index bi = 0; bi < m_bodies.size(); ++bi) {
+    Body& b = m_bodies[bi];
+    if (!std::isfinite(b.fracture.toughness)) continue;
+    std::vector<NodeSplit> splits;
+    std::vector<TetFace> exposed;
+    fracture(b.integrator(), b.topology, b.fracture, splits, exposed);
+    for (const NodeSplit& s : splits) report.splits.emplace_back(bi, s);
+    for (const TetFace& f : exposed) report.exposed.emplace_back(bi, f);
+  }
+  report.fracture += seconds_since(start);
+}
+
+StepStatus World::solve_bodies(const StepSettings& step, StepReport& report) {
+  // A failed body leaves itself unchanged; the ones solved before it are put back from
+  // their checkpoints, so a retry at dt / 2 starts where this (sub)step did.
+  std::vector<ImplicitIntegrator::Checkpoint>& before = m_substep_checkpoint;
+  before.resize(m_bodies.size());
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+    m_bodies[bi].integrator().save(before[bi]);
+    m_start_positions[bi] = m_bodies[bi].integrator().positions();
+  }
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+    ImplicitIntegrator& body = m_bodies[bi].integrator();
+    const int factorizations_before = body.factorizations();
+    const SolveStatus status = body.solve(step);
+    report.factorizations += body.factorizations() - factorizations_before;
+    report.assembly += body.last_phase_times().assembly;
+    report.solve += body.last_phase_times().solve;
+    report.solver_iterations += body.last_iterations();
+    if (status == SolveStatus::MaxIterations) report.unconverged = true;
+    if (status == SolveStatus::Converged || status == SolveStatus::MaxIterations) continue;
+    for (std::size_t bj = 0; bj < bi; ++bj) m_bodies[bj].integrator().restore(before[bj]);
+    return {StepOutcome::SolveFailed, static_cast<Index>(bi), status, m_time, step.dt};
+  }
+  return {};
+}
+
+void World::launch_and_move_projectiles(double dt) {
+  // Symplectic Euler, like the bodies; a projectile enters the scene at the step
+  // nearest its launch time.
+  m_projectile_start.resize(m_projectiles.size());
+  for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
+    Projectile& p = m_projectiles[j];
+    if (!p.launched && p.launch_time <= m_time + 0.5 * dt) p.launched = true;
+    m_projectile_start[j] = p.position;
+    if (!p.launched) continue;
+    p.velocity += dt * m_settings.step.gravity;
+    p.position += dt * p.velocity;
+  }
+}
+
+void World::collide(double dt, StepReport& report) {
+  const auto start = Clock::now();
+  std::vector<CollisionBody> collision_bodies;
+  collision_bodies.reserve(m_bodies.size());
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+    Body& b = m_bodies[bi];
+    collision_bodies.push_back({&b.integrator(), &b.collision_points(m_settings.collision_points),
+                                &m_start_positions[bi], &b.topology.tet_fragment(), b.contact});
+  }
+  CollisionSettings cs;
+  cs.dt = dt;
+  cs.gravity = m_settings.step.gravity;
+  cs.self_collision = m_settings.self_collision;
+  cs.iterations = m_settings.contact_iterations;
+  cs.impulses = &m_contact_impulses;
+  const ContactCounts counts =
+      resolve_collisions(collision_bodies, m_environment, m_projectiles, m_projectile_start, cs);
+  report.contacts.contacts += counts.contacts;
+  report.contacts.swept += counts.swept;
+  report.contacts.pairs_tested += counts.pairs_tested;
+  report.contacts.response_iterations += counts.response_iterations;
+  report.collisions += seconds_since(start);
+}
+
+std::optional<Index> World::first_non_finite() const {
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+    const ImplicitIntegrator& b = m_bodies[bi].integrator();
+    if (!b.positions().allFinite() || !b.velocities().allFinite()) return static_cast<Index>(bi);
+  }
+  for (const Projectile& p : m_projectiles) {
+    if (!p.position.allFinite() || !p.velocity.allFinite()) return kInvalidIndex;
+  }
+  return std::nullopt;
+}
+
+void World::roll_back(const StepReport& report) {
+  // Splits newest first, then each body's dynamic state from before the step.
+  for (auto it = report.splits.rbegin(); it != report.splits.rend(); ++it) {
+    Body& b = m_bodies[it->first];
+    b.integrator().undo_split(it->second.node, it->second.added);
+    b.topology.undo_split(it->second.node, it->second.added, b.integrator().elasticity().tets());
+  }
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_bodies[bi].integrator().restore(m_checkpoint.bodies[bi]);
+  std::vector<std::uint8_t> split(m_bodies.size(), 0);
+  for (const auto& entry : report.splits) split[entry.first] = 1;
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+    if (split[bi]) m_bodies[bi].topology.update_fragments(m_bodies[bi].integrator().elasticity().tets());
+  }
+  m_projectiles = m_checkpoint.projectiles;
+  m_contact_impulses = m_checkpoint.impulses;
+  m_time = m_checkpoint.time;
+}
+
+void World::keep_previous_positions(const StepReport& report) {
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) std::swap(m_previous_positions[bi], m_checkpoint.bodies[bi].positions);
+  // A node split during the step started where its source did.
+  for (const auto& [bi, split] : report.splits) {
+    Matrix3Xd& previous = m_previous_positions[bi];
+    FISSURE_ASSERT(previous.cols() == static_cast<Eigen::Index>(split.added));
+    previous.conservativeResize(Eigen::NoChange, previous.cols() + 1);
+    previous.col(split.added) = previous.col(split.node);
+  }
+}
+
+StepFailure World::explain(const StepStatus& status) const {
+  const std::string who = status.body < m_bodies.size() ? "body '" + m_bodies[status.body].name + "'" : "a projectile";
+  const std::string when = "at t = " + std::to_string(status.time) + " s, " + who + ": ";
+  const std::string step = " at dt = " + std::to_string(status.dt) + " s";
+  switch (status.outcome) {
+    case StepOutcome::Converged:
+    case StepOutcome::Substepped: return {when + to_string(status.outcome), ""};
+    case StepOutcome::SolveFailed:
+      return {when + "the implicit solve failed (" + to_string(status.solve) + ")" + step,
+              m_settings.min_dt > 0.0 ? "lower solver.min_dt, or use a smaller solver.dt"
+                                      : "set solver.min_dt to let steps halve, or use a smaller solver.dt"};
+    case StepOutcome::NonFinite:
+      return {when + "the state became non-finite" + step,
+              "use a smaller solver.dt or set solver.min_dt; please report the scene"};
+  }
+  return {when + "unknown outcome", ""};
+}
+
+void World::set_settings(const WorldSettings& settings) {
+  check_time_step(settings.step.dt);
+  m_settings = settings;
+  for (Body& b : m_bodies) b.fracture.max_splits_per_step = settings.max_splits_per_step;
+}
+
+void World::set_velocities(Index body, const Matrix3Xd& velocities) {
+  m_bodies.at(body).integrator().set_velocities(velocities);
+}
+
+BodyFrame World::frame(Index body) const {
+  const Body& b = m_bodies[body];
+  const ImplicitIntegrator& integrator = b.integrator();
+  if (m_deformation_step[body] != m_steps + 1) {
+    integrator.elasticity().deformation_gradients(integrator.positions(), m_deformation[body]);
+    m_deformation_step[body] = m_steps + 1;
+  }
+  return {integrator.positions(), m_previous_positions[body], integrator.elasticity().tets(), m_deformation[body],
+          b.topology.face_states(), b.topology.tet_fragment(), b.topology.version()};
 }
 
 double World::kinetic_energy() const {
   double e = 0.0;
-  for (const Body& b : m_bodies) e += b.solver->kinetic_energy();
+  for (const Body& b : m_bodies) e += b.integrator().kinetic_energy();
   for (const Projectile& p : m_projectiles) {
     if (p.launched) e += 0.5 * p.mass * p.velocity.squaredNorm();
   }
@@ -187,13 +328,13 @@ double World::kinetic_energy() const {
 
 double World::elastic_energy() const {
   double e = 0.0;
-  for (const Body& b : m_bodies) e += b.solver->elasticity().energy(b.solver->positions);
+  for (const Body& b : m_bodies) e += b.integrator().elasticity().energy(b.integrator().positions());
   return e;
 }
 
 double World::potential_energy() const {
   double e = 0.0;
-  for (const Body& b : m_bodies) e -= m_settings.step.gravity.dot(b.solver->positions * b.solver->node_masses());
+  for (const Body& b : m_bodies) e -= m_settings.step.gravity.dot(b.integrator().positions() * b.integrator().node_masses());
   for (const Projectile& p : m_projectiles) {
     if (p.launched) e -= p.mass * m_settings.step.gravity.dot(p.position);
   }
@@ -202,7 +343,7 @@ double World::potential_energy() const {
 
 Vec3 World::linear_momentum() const {
   Vec3 p = Vec3::Zero();
-  for (const Body& b : m_bodies) p += b.solver->linear_momentum();
+  for (const Body& b : m_bodies) p += b.integrator().linear_momentum();
   for (const Projectile& q : m_projectiles) {
     if (q.launched) p += q.mass * q.velocity;
   }
@@ -211,7 +352,7 @@ Vec3 World::linear_momentum() const {
 
 Vec3 World::angular_momentum() const {
   Vec3 l = Vec3::Zero();
-  for (const Body& b : m_bodies) l += b.solver->angular_momentum();
+  for (const Body& b : m_bodies) l += b.integrator().angular_momentum();
   for (const Projectile& q : m_projectiles) {
     if (q.launched) l += q.mass * q.position.cross(q.velocity);
   }
@@ -228,7 +369,7 @@ double World::sphere_penetration() const {
   double depth = 0.0;
   for (const Body& b : m_bodies) {
     for (std::size_t k = 0; k < b.spheres.size(); ++k) {
-      const Vec3 p = embedded_position(b.solver->positions, b.solver->elasticity().tets(), b.spheres, k);
+      const Vec3 p = embedded_position(b.integrator().positions(), b.integrator().elasticity().tets(), b.spheres, k);
       depth = std::max(depth, penetration(p, b.spheres.radius[k], m_environment, m_projectiles));
     }
   }
@@ -239,7 +380,7 @@ double World::vertex_penetration() const {
   double depth = 0.0;
   for (const Body& b : m_bodies) {
     for (std::size_t k = 0; k < b.vertices.size(); ++k) {
-      const Vec3 p = embedded_position(b.solver->positions, b.solver->elasticity().tets(), b.vertices, k);
+      const Vec3 p = embedded_position(b.integrator().positions(), b.integrator().elasticity().tets(), b.vertices, k);
       depth = std::max(depth, penetration(p, 0.0, m_environment, m_projectiles));
     }
   }

@@ -5,6 +5,8 @@
 /// kept, without collisions no points are swept.
 
 #include <memory>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,7 @@ enum class CollisionPoints { Spheres, RenderVertices };
 struct BodyDescription {
   std::string name;
   Matrix3Xd rest;          ///< 3×#N cage nodes in world space at rest [m]
+  Matrix3Xd positions;     ///< 3×#N where the nodes start (empty: at rest)
   Matrix4Xu tets;          ///< 4×#T, positively oriented
   Material material;
   double toughness = std::numeric_limits<double>::infinity();  ///< [N]
@@ -42,8 +45,35 @@ struct WorldSettings {
   int contact_iterations = 8;
 };
 
+/// How a step ended. A step never throws for a numerical outcome: it says what
+/// happened, and a failed step leaves the world exactly as it was before it.
+enum class StepOutcome : std::uint8_t {
+  Converged,    ///< one solve per body at dt (a CG solve may have hit its cap: see StepReport::unconverged)
+  Substepped,   ///< a solve failed at dt and the step was taken as halves (solver.min_dt)
+  SolveFailed,  ///< a solve failed even at the smallest dt allowed: the world is unchanged
+  NonFinite,    ///< the step produced a non-finite position or velocity: the world is unchanged
+};
+
+struct StepStatus {
+  StepOutcome outcome = StepOutcome::Converged;
+  Index body = kInvalidIndex;                ///< the body whose solve failed or went non-finite (kInvalidIndex: a projectile)
+  SolveStatus solve = SolveStatus::Converged;  ///< SolveFailed: why the body's solve failed
+  double time = 0;                           ///< [s] start of the failed step
+  double dt = 0;                             ///< [s] the step that failed (the smallest tried)
+  [[nodiscard]] bool ok() const { return outcome == StepOutcome::Converged || outcome == StepOutcome::Substepped; }
+};
+
+/// A failed status in words, for people: what failed, where, when and why.
+struct StepFailure {
+  std::string message;  ///< e.g. "at t = 0.25 s, body 'bunny': the implicit solve failed (…) at dt = 0.01 s"
+  std::string hint;     ///< what to try
+};
+
+[[nodiscard]] const char* to_string(StepOutcome outcome);
+
 /// What one step did, for reports.
 struct StepReport {
+  StepStatus status;
   double forces = 0, assembly = 0, solve = 0, fracture = 0, collisions = 0;  ///< [s] wall clock
   int substeps = 1;                 ///< > 1 when adaptive stepping halved dt
   int solver_iterations = 0;        ///< summed over bodies and substeps
@@ -54,17 +84,40 @@ struct StepReport {
   ContactCounts contacts;
 };
 
-struct Body {
+/// What a renderer, recorder or viewer may read of one body between steps (DESIGN.md,
+/// "Player loop and the sim/render boundary"). Valid until the next step.
+struct BodyFrame {
+  const Matrix3Xd& positions;           ///< 3×#N now [m]
+  const Matrix3Xd& previous_positions;  ///< 3×#N at the start of the last step (a split node: its source's)
+  const Matrix4Xu& tets;                ///< 4×#T, after splits
+  /// Per tet, the deformation gradient F at `positions` (end of step): a renderer turns
+  /// rest normals with its cofactor (F⁻ᵀ up to scale), the rotation alone with its polar part.
+  std::span<const Mat3> deformation;
+  std::span<const FaceState> faces;     ///< 4 per tet, face k opposite corner k
+  std::span<const Index> fragment;      ///< per tet
+  std::uint64_t topology_version;       ///< changes exactly when `tets` does
+};
+
+class Body {
+ public:
+  Body(std::string name, std::unique_ptr<ImplicitIntegrator> integrator, FractureTopology topology,
+       FractureSettings fracture, ContactMaterial contact, EmbeddedPoints spheres, EmbeddedPoints vertices);
+
   std::string name;
-  std::unique_ptr<ImplicitIntegrator> solver;  ///< pinned in memory (see ImplicitIntegrator)
   FractureTopology topology;
   FractureSettings fracture;
   ContactMaterial contact;
   EmbeddedPoints spheres;
   EmbeddedPoints vertices;
+
+  [[nodiscard]] const ImplicitIntegrator& integrator() const { return *m_integrator; }
+  ImplicitIntegrator& integrator() { return *m_integrator; }
   [[nodiscard]] const EmbeddedPoints& collision_points(CollisionPoints mode) const {
     return mode == CollisionPoints::Spheres ? spheres : vertices;
   }
+
+ private:
+  std::unique_ptr<ImplicitIntegrator> m_integrator;  ///< pinned in memory (see ImplicitIntegrator)
 };
 
 class World {
@@ -74,8 +127,9 @@ class World {
   World(std::vector<BodyDescription> bodies, Environment environment, std::vector<Projectile> projectiles,
         WorldSettings settings);
 
-  /// Advances by settings.step.dt. Throws fissure::Error when the solve fails even at
-  /// min_dt (or at dt with fixed steps), naming the time, body and reason.
+  /// Advances by settings.step.dt; report.status says how it went. On SolveFailed or
+  /// NonFinite nothing changed: time, positions, velocities, splits, projectiles and
+  /// the solvers' warm starts are as before the call.
   StepReport step();
 
   [[nodiscard]] double time() const { return m_time; }
@@ -83,6 +137,17 @@ class World {
   [[nodiscard]] const std::vector<Projectile>& projectiles() const { return m_projectiles; }
   [[nodiscard]] const Environment& environment() const { return m_environment; }
   [[nodiscard]] const WorldSettings& settings() const { return m_settings; }
+  /// Body `body` as it is now. Its deformation gradients are computed on the first call
+  /// after a step (one pass over the tets), so a world nobody draws never pays for them.
+  [[nodiscard]] BodyFrame frame(Index body) const;
+  /// Words for a status this world returned (ok statuses too).
+  [[nodiscard]] StepFailure explain(const StepStatus& status) const;
+  /// Replaces a body's node velocities (3×#N, finite): an external push, such as a
+  /// viewer's drag or a test's kick. It is work put into the world.
+  void set_velocities(Index body, const Matrix3Xd& velocities);
+  /// Applies new settings from the next step on (a viewer's live dt, tolerance or
+  /// solver). Throws fissure::Error for a dt that is not positive and finite.
+  void set_settings(const WorldSettings& settings);
 
   [[nodiscard]] double kinetic_energy() const;
   [[nodiscard]] double elastic_energy() const;
@@ -96,15 +161,38 @@ class World {
   [[nodiscard]] double vertex_penetration() const;
 
  private:
-  void advance(double dt, StepReport& report, int depth);
+  /// The state before a step, to put back when it fails.
+  struct Checkpoint {
+    double time = 0;
+    std::vector<ImplicitIntegrator::Checkpoint> bodies;
+    std::vector<Projectile> projectiles;
+    ContactImpulses impulses;
+  };
+  StepStatus advance(double dt, StepReport& report, int depth);
+  void fracture_bodies(StepReport& report);
+  /// Solves every body at dt; on a failure, puts the solved ones back where they were.
+  StepStatus solve_bodies(const StepSettings& step, StepReport& report);
+  void launch_and_move_projectiles(double dt);
+  void collide(double dt, StepReport& report);
+  /// The first body with a non-finite position or velocity (kInvalidIndex: a projectile).
+  [[nodiscard]] std::optional<Index> first_non_finite() const;
+  void roll_back(const StepReport& report);
+  void keep_previous_positions(const StepReport& report);
 
   std::vector<Body> m_bodies;
   Environment m_environment;
   std::vector<Projectile> m_projectiles;
   WorldSettings m_settings;
   double m_time = 0;
-  std::vector<Matrix3Xd> m_start_positions;
+  std::vector<Matrix3Xd> m_start_positions;  ///< per body, at the start of the current (sub)step
+  std::vector<Vec3> m_projectile_start;      ///< likewise per projectile
+  std::vector<Matrix3Xd> m_previous_positions;  ///< per body, at the start of the last whole step
   ContactImpulses m_contact_impulses;  ///< the last step's, to warm-start the next
+  Checkpoint m_checkpoint;
+  std::vector<ImplicitIntegrator::Checkpoint> m_substep_checkpoint;  ///< solve_bodies' scratch
+  std::uint64_t m_steps = 0;
+  mutable std::vector<std::vector<Mat3>> m_deformation;   ///< per body, frame()'s cache
+  mutable std::vector<std::uint64_t> m_deformation_step;  ///< per body, the step it is of (+1; 0: none)
 };
 
 }  // namespace fissure::sim

@@ -168,7 +168,7 @@ class FissureBeam final : public BeamEngine {
   }
   [[nodiscard]] double tip_deflection() const override {
     double drop = 0;
-    for (const NodeIndex n : m_beam.tip) drop += m_beam.cage.rest_positions(2, n) - m_body.positions(2, n);
+    for (const NodeIndex n : m_beam.tip) drop += m_beam.cage.rest_positions(2, n) - m_body.positions()(2, n);
     return drop / static_cast<double>(m_beam.tip.size());
   }
   void reset_counters() override {

@@ -136,7 +136,7 @@ Run simulate(const Case& c, int rate, sim::StepSettings settings, int sample_eve
     total_iterations += body.last_iterations();
     if (status == sim::SolveStatus::MaxIterations) ++run.capped;
     if (status == sim::SolveStatus::NotPositiveDefinite || status == sim::SolveStatus::NonFinite) ++run.failed;
-    if (step % sample_every == 0) run.states.push_back(body.positions);
+    if (step % sample_every == 0) run.states.push_back(body.positions());
   }
   run.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   run.iterations = static_cast<double>(total_iterations) / steps;

@@ -22,6 +22,20 @@ inline Mat3 rotation(double angle, const Vec3& axis) {
   return Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
 }
 
+/// Changes a body's positions (or velocities) in place through `change(Matrix3Xd&)`.
+template <typename Change>
+void change_positions(sim::ImplicitIntegrator& body, Change&& change) {
+  Matrix3Xd x = body.positions();
+  change(x);
+  body.set_positions(x);
+}
+template <typename Change>
+void change_velocities(sim::ImplicitIntegrator& body, Change&& change) {
+  Matrix3Xd v = body.velocities();
+  change(v);
+  body.set_velocities(v);
+}
+
 /// A body of the whole cage with the given material; everything else at its default.
 inline sim::BodyDescription describe(const std::string& name, const TetMesh& cage, const sim::Material& material) {
   sim::BodyDescription d;
