@@ -12,12 +12,7 @@
 
 namespace fissure::bake {
 
-enum class FaceClass : std::uint8_t {
-  Outside = 0,   ///< no surface crosses it and it is outside the solid: never drawn
-  Inside = 1,    ///< no surface crosses it and it is inside the solid: shared interior material
-  Crossing = 2,  ///< the surface cuts it: needs a baked tile
-  Degenerate = 3,  ///< the surface lies in its plane (aligned with the cage): no exact region, no tile
-};
+using formats::FaceClass;
 
 struct FaceRegions {
   std::vector<FaceClass> face_class;  ///< #faces

@@ -202,7 +202,7 @@ formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, 
   w.face_inside_area = regions.inside_area;
   std::vector<FaceIndex> tiled;
   for (FaceIndex f = 0; f < face_count; ++f) {
-    w.face_class[f] = static_cast<std::uint8_t>(regions.face_class[f]);
+    w.face_class[f] = regions.face_class[f];
     if (regions.face_class[f] == FaceClass::Crossing) {  // degenerate faces get no tile
       w.face_tile[f] = static_cast<Index>(tiled.size());
       tiled.push_back(f);

@@ -366,7 +366,12 @@ Bundle read_bundle_unchecked_context(const std::filesystem::path& path) {
     w.detail_seed = static_cast<std::uint64_t>(integer("detail_seed", std::numeric_limits<std::int64_t>::min(),
                                                        std::numeric_limits<std::int64_t>::max()));
     const auto faces = static_cast<hsize_t>(b.faces.face_count());
-    w.face_class = reader.read_vector<std::uint8_t>(g.id(), where, "face_class", ElementType::U8, faces);
+    const auto face_classes = reader.read_vector<std::uint8_t>(g.id(), where, "face_class", ElementType::U8, faces);
+    for (std::size_t f = 0; f < face_classes.size(); ++f) {
+      if (face_classes[f] > 3) throw Error(name + ": " + where + "/face_class row " + std::to_string(f) + " holds " +
+                                           std::to_string(face_classes[f]) + "; valid classes are 0, 1, 2, 3");
+      w.face_class.push_back(static_cast<FaceClass>(face_classes[f]));
+    }
     w.face_tile = reader.read_vector<Index>(g.id(), where, "face_tile", ElementType::U32, faces);
     w.face_inside_area = reader.read_vector<double>(g.id(), where, "face_inside_area", ElementType::F64, faces);
     const hsize_t tiles = reader.expect_shape(g.id(), where, "sdf", {w.resolution, w.resolution});

@@ -50,6 +50,15 @@ enum class TetClass : std::uint8_t {
   Crossing = 2,  ///< has instances: the surface passes through or touches it (closed-set contact)
 };
 
+/// How a cage face relates to the solid: what the renderer draws on it when fracture
+/// exposes it (thesis III.C, V.B).
+enum class FaceClass : std::uint8_t {
+  Outside = 0,     ///< no surface crosses it and it is outside the solid: never drawn
+  Inside = 1,      ///< no surface crosses it and it is inside the solid: shared interior material
+  Crossing = 2,    ///< the surface cuts it: has a baked tile
+  Degenerate = 3,  ///< the surface lies in its plane (aligned with the cage): no exact region, no tile
+};
+
 /// Result of the embedding stage (thesis III.A–B, plus the exact contours of III.C).
 struct Embedding {
   /// One instance per (render triangle, tet) pair whose closed sets intersect,
@@ -84,7 +93,7 @@ struct Embedding {
 /// is on the face, the rest of the square continues the fields so bilinear filtering
 /// is right up to the face's edges.
 struct Walls {
-  std::vector<std::uint8_t> face_class;   ///< #faces: 0 outside, 1 inside (shared material), 2 crossing, 3 degenerate (surface lies in the face: no tile)
+  std::vector<FaceClass> face_class;      ///< #faces (stored as uint8 0–3)
   std::vector<Index> face_tile;           ///< #faces: tile of a crossing face, else kInvalidIndex
   std::vector<double> face_inside_area;   ///< #faces: area of face ∩ solid [m²] (exact geometry, double rounding)
   std::uint32_t resolution = 0;           ///< texels per tile side

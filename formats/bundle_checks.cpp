@@ -94,28 +94,29 @@ VerifyCheck check_walls(const Bundle& b) {
   for (FaceIndex f = 0; f < b.faces.face_count(); ++f) {
     const bool has_contour = e.contour_offsets[f + 1] > e.contour_offsets[f];
     const double area = face_area(b.cage, b.faces, f);
-    if (w.face_class[f] == 3) {
+    const FaceClass cls = w.face_class[f];
+    if (cls == FaceClass::Degenerate) {
       if (!e.face_degenerate[f]) fail("face " + std::to_string(f) + " is classed degenerate but is not");
       if (w.face_tile[f] != kInvalidIndex) fail("degenerate face " + std::to_string(f) + " has a tile");
       continue;
     }
-    if ((w.face_class[f] == 2) != has_contour || w.face_class[f] > 3) {
-      fail("face " + std::to_string(f) + " is classed " + std::to_string(w.face_class[f]) + " but has " +
+    if ((cls == FaceClass::Crossing) != has_contour) {
+      fail("face " + std::to_string(f) + " is classed " + std::to_string(static_cast<int>(cls)) + " but has " +
            (has_contour ? "" : "no ") + "contour");
       continue;
     }
-    if ((w.face_tile[f] != kInvalidIndex) != (w.face_class[f] == 2)) {
+    if ((w.face_tile[f] != kInvalidIndex) != (cls == FaceClass::Crossing)) {
       fail("face " + std::to_string(f) + ": a tile exactly when the face is crossing");
       continue;
     }
     const double inside = w.face_inside_area[f];
-    if (!(inside >= 0.0 && inside <= area * (1.0 + 1e-9)) || (w.face_class[f] == 1 && std::abs(inside - area) > 1e-9 * area) ||
-        (w.face_class[f] == 0 && inside != 0.0)) {
+    if (!(inside >= 0.0 && inside <= area * (1.0 + 1e-9)) || (cls == FaceClass::Inside && std::abs(inside - area) > 1e-9 * area) ||
+        (cls == FaceClass::Outside && inside != 0.0)) {
       fail("face " + std::to_string(f) + ": inside area " + format_double(inside) + " of " + format_double(area) +
-           " does not fit its class " + std::to_string(w.face_class[f]));
+           " does not fit its class " + std::to_string(static_cast<int>(cls)));
       continue;
     }
-    if (w.face_class[f] != 2) continue;
+    if (cls != FaceClass::Crossing) continue;
     ++crossing;
     if (!contours_closed(e, f)) {
       ++open_faces;  // an open surface ends inside this face: no exact area to compare with
@@ -226,7 +227,7 @@ std::vector<double> covered_area(const SurfaceMesh& render, const TetMesh& cage,
 
 double tile_inside_area(const Walls& w, FaceIndex face, double area) {
   const Index tile = w.face_tile[face];
-  if (tile == kInvalidIndex) return w.face_class[face] == 1 ? area : 0.0;
+  if (tile == kInvalidIndex) return w.face_class[face] == FaceClass::Inside ? area : 0.0;
   const std::size_t res = w.resolution;
   const std::uint8_t* sdf = &w.sdf[tile * res * res];
   std::size_t inside = 0;

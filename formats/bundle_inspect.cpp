@@ -111,7 +111,7 @@ std::string summary_text(const BundleSummary& s) {
   add("\n  contours      %zu segments\n", b.embedding.segment_count());
   if (b.walls) {
     std::size_t by_class[3] = {0, 0, 0};
-    for (const auto cls : b.walls->face_class) ++by_class[std::min<int>(cls, 2)];
+    for (const auto cls : b.walls->face_class) ++by_class[std::min(static_cast<int>(cls), 2)];
     add("walls\n  tiles         %zu of %u² texels (SDF range %.3g texels), depth %u², detail %u²\n", b.walls->tile_count(),
         b.walls->resolution, b.walls->sdf_range_texels, b.walls->depth_resolution, b.walls->detail_resolution);
     add("  faces         %zu crossing, %zu inside (shared material), %zu outside\n", by_class[2], by_class[1], by_class[0]);

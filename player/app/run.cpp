@@ -223,7 +223,7 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
       const sim::Body& body = world.bodies()[b];
       json.begin_object();
       json.key("name").value(body.name);
-      json.key("bundle").value(loaded.bundle_names[b]);
+      json.key("bundle").value(loaded.assets[b].bundle_name);
       json.key("tets").value(static_cast<std::uint64_t>(body.integrator().elasticity().tet_count()));
       json.key("nodes_initial").value(static_cast<std::uint64_t>(initial_nodes[b]));
       json.key("nodes_final").value(static_cast<std::uint64_t>(body.integrator().node_count()));

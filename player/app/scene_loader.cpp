@@ -99,7 +99,7 @@ sim::BodyDescription describe(const formats::Scene& scene, std::size_t index, co
 
 LoadedScene load_scene(const formats::Scene& scene) {
   std::vector<sim::BodyDescription> bodies;
-  std::vector<std::string> names;
+  std::vector<BodyAssets> assets;
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const formats::SceneObject& object = scene.objects[i];
     if (!std::filesystem::exists(object.bundle)) {
@@ -107,9 +107,9 @@ LoadedScene load_scene(const formats::Scene& scene) {
                       "].bundle " + object.bundle.string() + " does not exist",
                   "paths are relative to the scene file's folder; bake the bundle with `fissure-bake bake` first");
     }
-    const formats::Bundle bundle = formats::read_bundle(object.bundle);
+    formats::Bundle bundle = formats::read_bundle(object.bundle);
     bodies.push_back(describe(scene, i, bundle));
-    names.push_back(object.bundle.filename().string());
+    assets.push_back({object.bundle.filename().string(), std::move(bundle), object.scale});
   }
   sim::Environment environment;
   if (scene.ground.enabled) {
@@ -145,7 +145,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
   settings.collision_points = scene.features.collision_mode == formats::SceneCollisionMode::Vertices
                                   ? sim::CollisionPoints::RenderVertices
                                   : sim::CollisionPoints::Spheres;
-  return {sim::World(std::move(bodies), std::move(environment), std::move(projectiles), settings), std::move(names)};
+  return {sim::World(std::move(bodies), std::move(environment), std::move(projectiles), settings), std::move(assets)};
 }
 
 }  // namespace fissure::player

@@ -6,14 +6,25 @@
 #include <string>
 #include <vector>
 
+#include "formats/bundle.h"
 #include "formats/scene.h"
 #include "player/sim/world.h"
 
 namespace fissure::player {
 
+/// What the player keeps of one body's bundle, read once at load, for rendering: the
+/// render mesh and its instances (barycentric in the cage's tets, so they follow the
+/// simulated nodes whatever the object's placement), the face table, wall tiles and
+/// collision spheres. The cage itself lives on in the world.
+struct BodyAssets {
+  std::string bundle_name;  ///< the bundle's file name
+  formats::Bundle bundle;
+  double scale = 1;         ///< the scene's uniform scale of the object (walls' depths, sphere radii)
+};
+
 struct LoadedScene {
   sim::World world;
-  std::vector<std::string> bundle_names;  ///< per body, the bundle's file name
+  std::vector<BodyAssets> assets;  ///< per body, in the world's body order
 };
 
 /// Throws fissure::Error naming the scene file, line and object for anything a bundle

@@ -60,7 +60,9 @@ TEST(Walls, InsideAreaOfAPlaneCutIsExact) {
     const double exact = area_below(p.col(b.faces.nodes(0, f)), p.col(b.faces.nodes(1, f)), p.col(b.faces.nodes(2, f)), 0.3);
     EXPECT_NEAR(b.walls->face_inside_area[f], exact, 1e-12) << "face " << f;
     const bool crossing = exact > 0.0 && exact < face_area(b.cage, b.faces, f) - 1e-12;
-    EXPECT_EQ(b.walls->face_class[f], crossing ? 2 : (exact > 0.0 ? 1 : 0)) << "face " << f;
+    EXPECT_EQ(b.walls->face_class[f], crossing ? formats::FaceClass::Crossing
+                                               : (exact > 0.0 ? formats::FaceClass::Inside : formats::FaceClass::Outside))
+        << "face " << f;
     ++checked;
   }
   EXPECT_GT(checked, 50u);
@@ -72,7 +74,7 @@ TEST(Walls, TileCoverageConvergesToTheExactAreaAsResolutionDoubles) {
     const formats::Bundle b = bake_plane_case(resolution);
     double total_error = 0.0;
     for (FaceIndex f = 0; f < b.faces.face_count(); ++f) {
-      if (!in_middle(b, f) || b.walls->face_class[f] != 2) continue;
+      if (!in_middle(b, f) || b.walls->face_class[f] != formats::FaceClass::Crossing) continue;
       const double area = face_area(b.cage, b.faces, f);
       const double error = std::abs(formats::tile_inside_area(*b.walls, f, area) - b.walls->face_inside_area[f]);
       // About one texel row along the region's boundary (contour + face edges).
