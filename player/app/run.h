@@ -1,6 +1,6 @@
 #pragma once
-/// `fissure-player run`: steps a scene headless, prints per-phase timings and a
-/// summary, and optionally writes a JSON report and an HDF5 trajectory.
+/// `fissure-player run`: steps a scene headless through the run loop, prints per-phase
+/// timings and a summary, and optionally writes a JSON report and an HDF5 trajectory.
 
 #include <filesystem>
 
@@ -13,9 +13,12 @@ struct RunOptions {
   std::filesystem::path report;      ///< JSON report; empty: none
   std::filesystem::path trajectory;  ///< HDF5 trajectory; empty: none
   long trajectory_every = 1;         ///< record every k-th step
+  bool diagnostics = true;           ///< energies and penetrations every step (timed, outside the step)
 };
 
-/// Returns the process exit code. Throws fissure::Error for invalid input.
+/// Returns the process exit code: 0, or 1 when a step failed (the message names the
+/// time, body and reason; the report and trajectory are still written, up to the last
+/// good step). Throws fissure::Error for invalid input.
 int run_scene(const formats::Scene& scene, const RunOptions& options);
 
 }  // namespace fissure::player

@@ -115,6 +115,7 @@ const char* to_string(StepOutcome outcome) {
 }
 
 StepReport World::step() {
+  const auto start = Clock::now();
   StepReport report;
   report.substeps = 0;
   m_checkpoint.time = m_time;
@@ -131,10 +132,11 @@ StepReport World::step() {
   }
   if (!report.status.ok()) {
     roll_back(report);
-    return report;
+  } else {
+    keep_previous_positions(report);
+    ++m_steps;
   }
-  keep_previous_positions(report);
-  ++m_steps;
+  report.total = seconds_since(start);
   return report;
 }
 

@@ -75,6 +75,7 @@ struct StepFailure {
 struct StepReport {
   StepStatus status;
   double forces = 0, assembly = 0, solve = 0, fracture = 0, collisions = 0;  ///< [s] wall clock
+  double total = 0;                 ///< [s] wall clock of the whole step, phases and what lies between
   int substeps = 1;                 ///< > 1 when adaptive stepping halved dt
   int solver_iterations = 0;        ///< summed over bodies and substeps
   int factorizations = 0;           ///< numeric Cholesky factorizations, summed likewise

@@ -85,6 +85,24 @@ TEST_F(PlayerCli, MissingBundleAndBadPinsAreErrorsNamingTheObject) {
   EXPECT_NE(result.output.find("pinned node 7 does not exist"), std::string::npos) << result.output;
 }
 
+// A run whose numbers stop being finite ends with exit 1 and a message naming the step
+// and the time, and still leaves its report (which records why) and trajectory.
+TEST_F(PlayerCli, ANonFiniteRunStopsWithExit1AndSaysWhen) {
+  const std::filesystem::path path = dir.path() / "blowup.toml";
+  // 1e200 m/s: the kinetic energy overflows while every position stays finite.
+  std::ofstream(path) << "[solver]\ndt = 0.01\n\n[[object]]\nbundle = \"two.h5\"\nvelocity = [1e200, 0, 0]\n";
+  const auto report = dir.path() / "report.json", trajectory = dir.path() / "trajectory.h5";
+  const auto result = player("run " + quoted(path) + " --no-render --steps 10 --report " + quoted(report) +
+                             " --trajectory " + quoted(trajectory));
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("stopped after"), std::string::npos) << result.output;
+  EXPECT_NE(result.output.find("non-finite"), std::string::npos) << result.output;
+  EXPECT_NE(result.output.find("hint:"), std::string::npos) << result.output;
+  const std::string json = read_text(report);
+  EXPECT_NE(json.find("\"outcome\":\"stopped\""), std::string::npos) << json;
+  EXPECT_TRUE(std::filesystem::exists(trajectory));
+}
+
 TEST_F(PlayerCli, BadRunOptionsAreErrors) {
   const auto result = player("run " + quoted(scene("")) + " --no-render --steps -3");
   EXPECT_EQ(result.exit_code, 1);

@@ -1,0 +1,35 @@
+#include "player/app/run_statistics.h"
+
+#include <algorithm>
+
+namespace fissure::player {
+
+void PhaseStats::add(double seconds) {
+  total += seconds;
+  max = std::max(max, seconds);
+}
+
+void RunStatistics::on_start(const sim::World& world) {
+  initial_nodes.clear();
+  for (const sim::Body& b : world.bodies()) initial_nodes.push_back(b.integrator().node_count());
+}
+
+void RunStatistics::on_step(const sim::World& /*world*/, const sim::StepReport& r, long /*step*/) {
+  step.add(r.total);
+  forces.add(r.forces);
+  assembly.add(r.assembly);
+  solve.add(r.solve);
+  fracture.add(r.fracture);
+  collisions.add(r.collisions);
+  splits += r.splits.size();
+  exposed += r.exposed.size();
+  contacts += r.contacts.contacts;
+  swept += r.contacts.swept;
+  response_iterations += r.contacts.response_iterations;
+  unconverged += r.unconverged ? 1 : 0;
+  iterations += r.solver_iterations;
+  factorizations += r.factorizations;
+  substeps_max = std::max(substeps_max, r.substeps);
+}
+
+}  // namespace fissure::player

@@ -1,0 +1,30 @@
+#pragma once
+/// Observer: what a run did, step by step — per-phase timings, solver and contact
+/// counters, fracture events — for the console summary and the JSON report. Cheap: it
+/// only adds up what each step's report already holds.
+
+#include <cstddef>
+#include <vector>
+
+#include "player/app/run_loop.h"
+
+namespace fissure::player {
+
+struct PhaseStats {
+  double total = 0, max = 0;  ///< [s]
+  void add(double seconds);
+};
+
+class RunStatistics : public RunObserver {
+ public:
+  void on_start(const sim::World& world) override;
+  void on_step(const sim::World& world, const sim::StepReport& report, long step) override;
+
+  PhaseStats forces, assembly, solve, fracture, collisions, step;
+  std::size_t splits = 0, exposed = 0, contacts = 0, swept = 0, unconverged = 0, response_iterations = 0;
+  long iterations = 0, factorizations = 0;
+  int substeps_max = 1;
+  std::vector<Index> initial_nodes;  ///< per body
+};
+
+}  // namespace fissure::player
