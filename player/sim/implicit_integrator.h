@@ -21,7 +21,8 @@
 #include <vector>
 
 #include "player/sim/corotated_elasticity.h"
-#include "player/sim/sparse_cholesky.h"
+#include "player/sim/block_system.h"
+#include "player/sim/lagged_cholesky.h"
 
 namespace fissure::sim {
 
@@ -135,12 +136,12 @@ class ImplicitIntegrator {
   /// step (contact_response.h): a velocity correction δ answering impulses f must solve
   /// A δ = f, so the body responds to a contact as a whole, elastically, within the step.
   /// Valid from a solve() until the next evaluate(), split or pin.
-  [[nodiscard]] Eigen::Index system_size() const { return 3 * static_cast<Eigen::Index>(m_free_nodes.size()); }
+  [[nodiscard]] Eigen::Index system_size() const { return m_system.rows(); }
   /// First of a free node's three rows in the system; kInvalidIndex for a pinned node.
-  [[nodiscard]] Index system_row(NodeIndex node) const { return m_dof[node]; }
+  [[nodiscard]] Index system_row(NodeIndex node) const { return m_system.row(node); }
   /// A's mass term is this times M (1 + h α with Rayleigh mass damping).
   [[nodiscard]] double system_mass_scale() const { return m_system_m_scale; }
-  [[nodiscard]] bool has_pinned_nodes() const { return m_free_nodes.size() != m_pinned.size(); }
+  [[nodiscard]] bool has_pinned_nodes() const { return m_system.free_count() != m_pinned.size(); }
   /// A's 3×3 diagonal block of a free node.
   [[nodiscard]] Mat3 system_diagonal_block(NodeIndex node) const;
   /// y = A x.
@@ -170,15 +171,14 @@ class ImplicitIntegrator {
   [[nodiscard]] Vec3 angular_momentum() const;  ///< about the origin
 
  private:
-  void build_pattern();
-  /// The system's values from the last evaluate(), into the fixed pattern.
-  void assemble_matrix(double k_scale, double m_scale);
-  /// y = m_scale M x − k_scale K x on the free rows, element by element (no matrix).
-  void system_product(double k_scale, double m_scale, const Eigen::VectorXd& x, Eigen::VectorXd& y);
-  /// m_node_rotation from the tets' rotations now and at the last factorization.
-  void update_node_rotations();
-  /// Block `block` of −K from the last evaluate(), summed over its terms in tet order.
-  [[nodiscard]] Mat3 stiffness_block(Index block) const;
+  /// b of A Δv = b, from the last evaluate().
+  Eigen::VectorXd right_hand_side(const StepSettings& settings);
+  /// Factors the assembled system (counted); `lagged`: as a preconditioner.
+  bool refactor(bool lagged);
+  /// Conjugate gradients from the warm start; Δv into dv.
+  SolveStatus solve_iteratively(const StepSettings& settings, const Eigen::VectorXd& b, Eigen::VectorXd& dv);
+  /// v += Δv, x += h v on the free nodes; remembers Δv for the next warm start.
+  void advance(const Eigen::VectorXd& dv, double h);
   void lump_masses();
   void check_state(const Matrix3Xd& m, const char* what) const;
 
@@ -191,39 +191,11 @@ class ImplicitIntegrator {
   std::vector<Vec4> m_corner_weight;         ///< #T, each sums to 1
   Eigen::VectorXd m_mass;                    ///< #N lumped masses [kg]
   std::vector<std::uint8_t> m_pinned;
-  std::vector<Index> m_dof;                  ///< node → first row in the system, kInvalidIndex if pinned
-  std::vector<NodeIndex> m_free_nodes;       ///< free node of each 3-row block, in row order
-  std::vector<std::array<Index, 4>> m_tet_dofs;  ///< per tet: its corners' first rows, kInvalidIndex if pinned
-  /// The system, both triangles, in whole 3×3 blocks: each block column (3 columns of
-  /// one free node) lists the same rows. Steps refill its values in place.
-  Eigen::SparseMatrix<double> m_matrix;
-  /// One (tet, corner i, corner j) term of a 3×3 block.
-  struct BlockTerm {
-    TetIndex tet;
-    std::uint8_t i, j;
-  };
-  /// Per block (sorted by block column, then row): where its (0, 0) value is, whether it
-  /// is a diagonal block, and its terms in tet order: a gather, so the blocks are filled
-  /// in parallel and the sums do not depend on the thread count.
-  std::vector<Index> m_block_value;
-  std::vector<std::uint8_t> m_block_diagonal;
-  std::vector<Index> m_block_column_start;   ///< per free node + 1: its first block
-  std::vector<Index> m_block_term_start;     ///< per block + 1
-  std::vector<BlockTerm> m_block_terms;
-  /// Per free node + 1, and the (tet, corner) slots holding it, in tet order (the
-  /// right-hand side's gather).
-  std::vector<Index> m_incidence_start;
-  std::vector<std::pair<TetIndex, int>> m_incidence;
-  std::vector<Mat34> m_tet_rhs;              ///< per tet: f + (β + h) K v at its corners
-  bool m_pattern_dirty = true;
-  SparseCholesky m_cholesky;
-  double m_factored_k_scale = 0.0;           ///< (hβ + h²) and (1 + hα) the factor was made with,
-  double m_factored_m_scale = 0.0;           ///< so a dt change refactors
+  BlockSystem m_system;                      ///< A's pattern, assembly and product
+  LaggedCholesky m_factor;                   ///< the direct solve's factor, or the lagged preconditioner
+  bool m_pattern_dirty = true;               ///< a split or pin changed the connectivity
   int m_factorizations = 0;
-  std::vector<Mat3> m_factored_rotations;    ///< per tet: its rotation when A_f was factored
-  std::vector<Mat3> m_node_rotation;         ///< per free node: its rotation since then
-  std::vector<Mat3> m_tet_rotation_change;   ///< per tet: Q_t Q_t,fᵀ (scratch)
-  std::vector<Mat34> m_tet_product;          ///< per tet: K_t x_t (system_product's scratch)
+  std::vector<Mat34> m_tet_rhs;              ///< per tet: f + (β + h) K v at its corners
   /// Conjugate gradients' warm start. After two solves in a row at the same dt with no
   /// contact correction between (m_smooth_solves ≥ 2) it is the linear extrapolation
   /// 2 Δv_last − Δv_previous: a smoothly moving body (a sagging cantilever, free flight)

@@ -108,7 +108,7 @@ TEST(World, BitIdenticalAcrossThreadCountsAndRuns) {
 //  - OpenBLAS's kernel inside CHOLMOD's supernodal factorization, which OpenBLAS picks
 //    by CPU at run time: CTest forces OPENBLAS_CORETYPE=Haswell (tests/CMakeLists.txt)
 //    where the CPU has AVX2, as on SkylakeX kernels the hash is fa5b48627707ee5e;
-//  - the compiler and its flags (Debian 12's GCC 12, -O3), Eigen 3.4 and CHOLMOD 5.
+//  - the compiler and its flags (Debian 12's GCC 12, -O3), Eigen 3.4 and CHOLMOD 3 (SuiteSparse 5.12).
 // It does not depend on the thread count (the test above). It was taken at 32b2c8e,
 // before the player-structure work (issue 13), and holds across it.
 TEST(World, BreakingSceneMatchesItsPinnedHash) {
