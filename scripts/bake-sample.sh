@@ -11,7 +11,7 @@ bake=build/release/bake/fissure-bake
 # OpenBLAS (inside CHOLMOD) picks its kernel by CPU, and the kernel changes rounding, so
 # fracture can differ in detail between machines: with the Haswell kernels, which any
 # AVX2 machine runs, the figures match the README's (docs/reproducibility.md).
-if grep -qw avx2 /proc/cpuinfo 2>/dev/null && [ -z "${OPENBLAS_CORETYPE:-}" ]; then
+if grep -qw avx2 /proc/cpuinfo 2>/dev/null && grep -qw fma /proc/cpuinfo && [ -z "${OPENBLAS_CORETYPE:-}" ]; then
   export OPENBLAS_CORETYPE=Haswell
 fi
 mkdir -p out

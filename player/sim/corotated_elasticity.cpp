@@ -123,7 +123,7 @@ namespace {
 /// The batch's Newton iterations on lanes (q[k][lane]: entry k of lane's matrix,
 /// column-major). Sets, per lane, whether it converged; built for AVX2/FMA and for
 /// baseline x86-64 and chosen at load time (the same machine always takes the same one).
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void polar_newton_lanes(
+FISSURE_SIMD_KERNEL void polar_newton_lanes(
     double (&q)[9][kLanes], bool (&converged)[kLanes]) {
   constexpr int L = kLanes;
   double cofactor[9][L], det[L], change[L], a[L], b[L];
@@ -207,7 +207,7 @@ namespace {
 // per-tet Eigen 3×3 expressions were a third of the step.
 
 /// F = Σᵢ xᵢ gᵢᵀ.
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void deformation_gradient_lanes(
+FISSURE_SIMD_KERNEL void deformation_gradient_lanes(
     const double (&x)[12][kLanes], const double (&g)[12][kLanes], double (&F)[9][kLanes]) {
   for (int a = 0; a < 3; ++a) {
     for (int b = 0; b < 3; ++b) {
@@ -221,7 +221,7 @@ __attribute__((target_clones("arch=x86-64-v3", "default"))) void deformation_gra
 
 /// From the rotation Q and F: the rotated gradients Q g, the forces −V Q σ g with
 /// σ = 2μ ε + λ tr(ε) I, ε = sym(Qᵀ F) − I, and the world stress Q σ Qᵀ.
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void element_lanes(
+FISSURE_SIMD_KERNEL void element_lanes(
     const double (&Q)[9][kLanes], const double (&F)[9][kLanes], const double (&g)[12][kLanes],
     const double (&volume)[kLanes], double mu, double lambda, double (&rotated)[12][kLanes],
     double (&forces)[12][kLanes], double (&world_stress)[9][kLanes]) {
@@ -370,7 +370,7 @@ namespace {
 
 /// The warped product on lanes (entry k = 3j + a of a 3×4 matrix, column-major):
 /// W = u ĝᵀ, σ = μ (W + Wᵀ) + λ tr(W) I, out = scale σ ĝ with scale = −V.
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void warped_product_lanes(
+FISSURE_SIMD_KERNEL void warped_product_lanes(
     const double (&u)[12][kLanes], const double (&g)[12][kLanes], const double (&scale)[kLanes],
     double mu, double lambda, double (&out)[12][kLanes]) {
   constexpr int L = kLanes;

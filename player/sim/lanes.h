@@ -1,7 +1,8 @@
 #pragma once
 /// Batches for the element loops' SIMD kernels: kLanes consecutive tets (or nodes), one
 /// per lane of a register of doubles (AVX2 holds four). The kernels themselves are built
-/// per instruction set with `target_clones`, so the same binary runs everywhere.
+/// per instruction set with `target_clones`, so the same binary runs everywhere
+/// (FISSURE_SIMD_KERNEL; one portable build where the clones are off or unsupported).
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -12,6 +13,12 @@
 namespace fissure::sim {
 
 inline constexpr int kLanes = 4;
+
+#if defined(FISSURE_SIMD_CLONES)
+#define FISSURE_SIMD_KERNEL __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define FISSURE_SIMD_KERNEL
+#endif
 
 /// Calls body(first, size) for each batch [first, first + size) of kLanes items of
 /// [0, count) (the last one may be short), in parallel, `grain` items or more per task.

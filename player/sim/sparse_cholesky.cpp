@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/assert.h"
+#include "player/sim/lanes.h"
 
 namespace fissure::sim {
 
@@ -143,12 +144,12 @@ template <typename Value>
 // Each sweep per precision, built for AVX2/FMA and for baseline x86-64 and chosen at
 // load time (the same machine always takes the same one).
 #define FISSURE_SWEEPS(Value, suffix)                                                                             \
-  __attribute__((target_clones("arch=x86-64-v3", "default"))) void forward_##suffix(                             \
+  FISSURE_SIMD_KERNEL void forward_##suffix(                             \
       const Supernodes& L, const Value* values, int first, int last, double* c, double* w,                      \
       const std::uint8_t* owned, double* redirected) {                                                            \
     forward_sweep(L, values, first, last, c, w, owned, redirected);                                               \
   }                                                                                                               \
-  __attribute__((target_clones("arch=x86-64-v3", "default"))) void backward_##suffix(                            \
+  FISSURE_SIMD_KERNEL void backward_##suffix(                            \
       const Supernodes& L, const Value* values, int first, int last, double* c, double* x) {                      \
     backward_sweep(L, values, first, last, c, x);                                                                 \
   }
