@@ -11,17 +11,8 @@ namespace fissure::sim {
 
 namespace {
 
-/// One side of a contact: a point embedded in a body, a projectile, or a fixed point
-/// on a static obstacle.
-struct Side {
-  enum class Kind : std::uint8_t { Static, Embedded, Projectile } kind = Kind::Static;
-  Index owner = 0;  ///< body or projectile index; for a static side, which obstacle (ContactKey)
-  Index point = 0;  ///< embedded point index
-  Vec3 anchor = Vec3::Zero();
-};
-
 struct Contact {
-  Side a, b;
+  ContactSide a, b;
   Vec3 normal;             ///< from b towards a
   double reach = 0;        ///< a and b touch when normal · (a − b) = reach
   double gap = 0;          ///< normal · (a − b) − reach at the start of the step
@@ -50,35 +41,27 @@ double contact_target(const Contact& c, double approach, const CollisionSettings
   return speculative;
 }
 
-/// The response's view of a side: the embedded point's tet and weights.
-ContactSide response_side(const Side& s, std::span<const CollisionBody> bodies) {
-  switch (s.kind) {
-    case Side::Kind::Static: return {};
-    case Side::Kind::Projectile: return {ContactSide::Kind::Projectile, s.owner};
-    case Side::Kind::Embedded: {
-      const EmbeddedPoints& points = *bodies[s.owner].points;
-      return {ContactSide::Kind::Embedded, s.owner, points.tet[s.point], points.barycentric[s.point]};
-    }
-  }
-  return {};
+ContactSide embedded_side(std::span<const CollisionBody> bodies, Index body, Index point) {
+  const EmbeddedPoints& points = *bodies[body].points;
+  return {ContactSide::Kind::Embedded, body, point, points.tet[point], points.barycentric[point]};
 }
 
-Vec3 side_velocity(const Side& s, std::span<const CollisionBody> bodies, std::span<const Projectile> projectiles) {
+ContactSide projectile_side(Index projectile) { return {ContactSide::Kind::Projectile, projectile}; }
+
+ContactSide static_side(Index obstacle) { return {ContactSide::Kind::Static, obstacle}; }
+
+Vec3 side_velocity(const ContactSide& s, std::span<const CollisionBody> bodies,
+                   std::span<const Projectile> projectiles) {
   switch (s.kind) {
-    case Side::Kind::Static: return Vec3::Zero();
-    case Side::Kind::Projectile: return projectiles[s.owner].velocity;
-    case Side::Kind::Embedded: {
+    case ContactSide::Kind::Static: return Vec3::Zero();
+    case ContactSide::Kind::Projectile: return projectiles[s.owner].velocity;
+    case ContactSide::Kind::Embedded: {
       const CollisionBody& b = bodies[s.owner];
       return embedded_position(b.body->velocities(), b.body->elasticity().tets(), *b.points, s.point);
     }
   }
   return Vec3::Zero();
 }
-
-struct SweptPoint {
-  Vec3 start, end;
-  double radius;
-};
 
 /// First contact of a point sweeping start → end with an axis-aligned box: the segment
 /// against the box grown by the radius (slab test; a little conservative at the box's
@@ -139,7 +122,7 @@ std::optional<std::pair<Vec3, Vec3>> box_contact(const Box& box, const SweptPoin
 }
 
 /// Adds the contacts of one swept point (side `a`) with the static environment.
-void static_contacts(const Side& a, const SweptPoint& p, const ContactMaterial& material,
+void static_contacts(const ContactSide& a, const SweptPoint& p, const ContactMaterial& material,
                      const Environment& environment, std::vector<Contact>& out, ContactCounts& counts) {
   if (environment.ground) {
     const Plane& g = *environment.ground;
@@ -148,7 +131,7 @@ void static_contacts(const Side& a, const SweptPoint& p, const ContactMaterial& 
     if (height < p.radius) {
       const ContactMaterial m = combine(material, g.material);
       const double gap = g.normal.dot(p.start) - g.offset - p.radius;
-      out.push_back({a, Side{.owner = 0, .anchor = p.end - height * g.normal}, g.normal, p.radius, gap, m.restitution, m.friction});
+      out.push_back({a, static_side(0), g.normal, p.radius, gap, m.restitution, m.friction});
     }
   }
   Index obstacle = 1;  // 0 is the ground
@@ -157,7 +140,7 @@ void static_contacts(const Side& a, const SweptPoint& p, const ContactMaterial& 
     if (const auto hit = box_contact(box, p)) {
       const ContactMaterial m = combine(material, box.material);
       const double gap = hit->first.dot(p.start - hit->second) - p.radius;
-      out.push_back({a, Side{.owner = obstacle - 1, .anchor = hit->second}, hit->first, p.radius, gap, m.restitution, m.friction});
+      out.push_back({a, static_side(obstacle - 1), hit->first, p.radius, gap, m.restitution, m.friction});
       const Vec3 outside = p.end.cwiseMax(box.min).cwiseMin(box.max) - p.end;
       if (outside.norm() >= p.radius) ++counts.swept;
     }
@@ -170,14 +153,14 @@ void static_contacts(const Side& a, const SweptPoint& p, const ContactMaterial& 
     normal = normal.norm() > 0.0 ? Vec3(normal.normalized()) : Vec3(Vec3::UnitZ());
     const ContactMaterial m = combine(material, ball.material);
     const Vec3 anchor = ball.center + ball.radius * normal;
-    out.push_back({a, Side{.owner = obstacle - 1, .anchor = anchor}, normal, p.radius, normal.dot(p.start - anchor) - p.radius, m.restitution,
-                   m.friction});
+    out.push_back({a, static_side(obstacle - 1), normal, p.radius, normal.dot(p.start - anchor) - p.radius,
+                   m.restitution, m.friction});
     if ((p.end - ball.center).norm() >= p.radius + ball.radius) ++counts.swept;
   }
 }
 
 /// Adds the contact between two swept points if they meet during the step.
-void pair_contact(const Side& a, const SweptPoint& pa, const Side& b, const SweptPoint& pb,
+void pair_contact(const ContactSide& a, const SweptPoint& pa, const ContactSide& b, const SweptPoint& pb,
                   const ContactMaterial& m, std::vector<Contact>& out, ContactCounts& counts) {
   const double reach = pa.radius + pb.radius;
   const auto s = time_of_impact(pa.start, pa.end, pb.start, pb.end, reach);
@@ -188,18 +171,6 @@ void pair_contact(const Side& a, const SweptPoint& pa, const Side& b, const Swep
   out.push_back({a, b, normal, reach, normal.dot(pa.start - pb.start) - reach, m.restitution, m.friction});
   if ((pa.end - pb.end).norm() >= reach) ++counts.swept;
 }
-
-struct AlignedBox {
-  Vec3 min = Vec3::Constant(std::numeric_limits<double>::infinity());
-  Vec3 max = Vec3::Constant(-std::numeric_limits<double>::infinity());
-  void add(const SweptPoint& p) {
-    min = min.cwiseMin(Vec3(p.start.cwiseMin(p.end).array() - p.radius));
-    max = max.cwiseMax(Vec3(p.start.cwiseMax(p.end).array() + p.radius));
-  }
-  [[nodiscard]] bool overlaps(const AlignedBox& o) const {
-    return (min.array() <= o.max.array()).all() && (o.min.array() <= max.array()).all();
-  }
-};
 
 }  // namespace
 
@@ -242,18 +213,13 @@ double penetration(const Vec3& point, double radius, const Environment& environm
   return depth;
 }
 
-ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environment& environment,
-                                 std::span<Projectile> projectiles, std::span<const Vec3> projectile_start,
-                                 const CollisionSettings& settings) {
-  ContactCounts counts;
-  const double h = settings.dt;
-  std::vector<SweptPoint> projectile_sweep(projectiles.size());
-  for (std::size_t j = 0; j < projectiles.size(); ++j) {
-    projectile_sweep[j] = {projectile_start[j], projectiles[j].position, projectiles[j].radius};
-  }
-  // Every embedded point's motion over the step, and each body's swept bounds.
-  std::vector<std::vector<SweptPoint>> sweeps(bodies.size());
-  std::vector<AlignedBox> bounds(bodies.size());
+namespace {
+
+/// Each embedded point's motion over the step, per body, and each body's swept bounds.
+void sweep_points(std::span<const CollisionBody> bodies, std::vector<std::vector<SweptPoint>>& sweeps,
+                  std::vector<AlignedBox>& bounds) {
+  sweeps.resize(bodies.size());
+  bounds.assign(bodies.size(), AlignedBox{});
   for (std::size_t bi = 0; bi < bodies.size(); ++bi) {
     const CollisionBody& b = bodies[bi];
     const Matrix4Xu& tets = b.body->elasticity().tets();
@@ -264,131 +230,80 @@ ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environm
       bounds[bi].add(sweeps[bi][k]);
     }
   }
-  std::vector<Contact> contacts;
-  for (std::size_t bi = 0; bi < bodies.size(); ++bi) {
-    for (std::size_t k = 0; k < sweeps[bi].size(); ++k) {
-      const Side a{Side::Kind::Embedded, static_cast<Index>(bi), static_cast<Index>(k)};
-      static_contacts(a, sweeps[bi][k], bodies[bi].material, environment, contacts, counts);
+}
+
+/// Contacts of every body's points with the static environment and the projectiles,
+/// and of the projectiles with the environment and each other.
+void environment_and_projectile_contacts(std::span<const CollisionBody> bodies,
+                                         const std::vector<std::vector<SweptPoint>>& sweeps,
+                                         const std::vector<AlignedBox>& bounds, const Environment& environment,
+                                         std::span<const Projectile> projectiles,
+                                         const std::vector<SweptPoint>& projectile_sweep, std::vector<Contact>& contacts,
+                                         ContactCounts& counts) {
+  for (Index bi = 0; bi < bodies.size(); ++bi) {
+    for (Index k = 0; k < sweeps[bi].size(); ++k) {
+      static_contacts(embedded_side(bodies, bi, k), sweeps[bi][k], bodies[bi].material, environment, contacts, counts);
     }
-    for (std::size_t j = 0; j < projectiles.size(); ++j) {
+    for (Index j = 0; j < projectiles.size(); ++j) {
       if (!projectiles[j].launched) continue;
       AlignedBox pb;
       pb.add(projectile_sweep[j]);
       if (!pb.overlaps(bounds[bi])) continue;
-      const Side b{Side::Kind::Projectile, static_cast<Index>(j)};
       const ContactMaterial m = combine(bodies[bi].material, projectiles[j].material);
-      for (std::size_t k = 0; k < sweeps[bi].size(); ++k) {
-        const Side a{Side::Kind::Embedded, static_cast<Index>(bi), static_cast<Index>(k)};
-        pair_contact(a, sweeps[bi][k], b, projectile_sweep[j], m, contacts, counts);
+      for (Index k = 0; k < sweeps[bi].size(); ++k) {
+        pair_contact(embedded_side(bodies, bi, k), sweeps[bi][k], projectile_side(j), projectile_sweep[j], m, contacts,
+                     counts);
       }
     }
   }
-  for (std::size_t j = 0; j < projectiles.size(); ++j) {
+  for (Index j = 0; j < projectiles.size(); ++j) {
     if (!projectiles[j].launched) continue;
-    const Side a{Side::Kind::Projectile, static_cast<Index>(j)};
-    static_contacts(a, projectile_sweep[j], projectiles[j].material, environment, contacts, counts);
-    for (std::size_t i = j + 1; i < projectiles.size(); ++i) {
+    static_contacts(projectile_side(j), projectile_sweep[j], projectiles[j].material, environment, contacts, counts);
+    for (Index i = j + 1; i < projectiles.size(); ++i) {
       if (!projectiles[i].launched) continue;
-      const Side b{Side::Kind::Projectile, static_cast<Index>(i)};
-      pair_contact(a, projectile_sweep[j], b, projectile_sweep[i], combine(projectiles[j].material, projectiles[i].material),
-                   contacts, counts);
+      pair_contact(projectile_side(j), projectile_sweep[j], projectile_side(i), projectile_sweep[i],
+                   combine(projectiles[j].material, projectiles[i].material), contacts, counts);
     }
   }
+}
+
+/// Contacts between points of different fragments or bodies (broad_phase.h).
+void self_contacts(std::span<const CollisionBody> bodies, const std::vector<std::vector<SweptPoint>>& sweeps,
+                   std::vector<Contact>& contacts, ContactCounts& counts) {
   // One body in one piece has nothing to collide with itself: skip the broad phase.
   const bool several_pieces = bodies.size() > 1 || (!bodies.empty() && [&] {
     const auto& fragment = *bodies.front().tet_fragment;
     return std::any_of(fragment.begin(), fragment.end(), [](Index f) { return f != 0; });
   }());
-  if (settings.self_collision && several_pieces) {
-    // Sort and sweep over the swept bounds of the points that can meet another piece.
-    // (A spatial hash sized by the radius broke down with fine spheres: fast fragments'
-    // swept boxes spanned thousands of cells, and 18k spheres took 0.5 s a step.)
-    // 1. Each piece's bounds: a point matters only where it overlaps another piece's.
-    struct Piece {
-      Index body, fragment;
-      bool operator<(const Piece& o) const { return std::tie(body, fragment) < std::tie(o.body, o.fragment); }
-    };
-    const auto piece_of = [&](Index bi, Index k) {
-      return Piece{bi, (*bodies[bi].tet_fragment)[bodies[bi].points->tet[k]]};
-    };
-    // A blown-up point (non-finite position) cannot be placed, so it meets nothing.
-    const auto placeable = [&](Index bi, Index k) {
-      const SweptPoint& p = sweeps[bi][k];
-      return p.radius > 0.0 && p.start.allFinite() && p.end.allFinite();
-    };
-    std::map<Piece, AlignedBox> piece_bounds;
-    for (Index bi = 0; bi < bodies.size(); ++bi) {
-      for (Index k = 0; k < sweeps[bi].size(); ++k) {
-        if (placeable(bi, k)) piece_bounds[piece_of(bi, k)].add(sweeps[bi][k]);
-      }
-    }
-    const std::vector<std::pair<Piece, AlignedBox>> pieces(piece_bounds.begin(), piece_bounds.end());
-    // Past this many pieces (a shattered body) the per-point filter would cost more than
-    // it saves: every point goes to the sweep.
-    constexpr std::size_t kMaxFilteredPieces = 64;
-    const bool filter = pieces.size() <= kMaxFilteredPieces;
-    struct Candidate {
-      AlignedBox box;
-      Index body, point, piece;  // piece: index into `pieces`
-    };
-    std::vector<Candidate> candidates;
-    for (Index bi = 0; bi < bodies.size(); ++bi) {
-      for (Index k = 0; k < sweeps[bi].size(); ++k) {
-        if (!placeable(bi, k)) continue;
-        Candidate c{{}, bi, k, 0};
-        c.box.add(sweeps[bi][k]);
-        const Piece piece = piece_of(bi, k);
-        c.piece = static_cast<Index>(
-            std::lower_bound(pieces.begin(), pieces.end(), piece, [](const auto& e, const Piece& p) { return e.first < p; }) -
-            pieces.begin());
-        const bool near_another = !filter || std::any_of(pieces.begin(), pieces.end(), [&](const auto& other) {
-          return &other != &pieces[c.piece] && c.box.overlaps(other.second);
-        });
-        if (near_another) candidates.push_back(c);
-      }
-    }
-    // 2. Sweep along the axis where the candidates spread most; ties in a fixed order,
-    // so the pairs (and the contacts) do not depend on anything but the state.
-    AlignedBox extent;
-    for (const Candidate& c : candidates) {
-      extent.min = extent.min.cwiseMin(c.box.min);
-      extent.max = extent.max.cwiseMax(c.box.max);
-    }
-    int axis = 0;
-    if (!candidates.empty()) (extent.max - extent.min).maxCoeff(&axis);
-    std::sort(candidates.begin(), candidates.end(), [axis](const Candidate& x, const Candidate& y) {
-      return std::tie(x.box.min[axis], x.body, x.point) < std::tie(y.box.min[axis], y.body, y.point);
-    });
-    std::vector<std::tuple<Index, Index, Index, Index>> pairs;
-    for (std::size_t i = 0; i < candidates.size(); ++i) {
-      const Candidate& ci = candidates[i];
-      for (std::size_t j = i + 1; j < candidates.size() && candidates[j].box.min[axis] <= ci.box.max[axis]; ++j) {
-        const Candidate& cj = candidates[j];
-        if (cj.piece == ci.piece || !ci.box.overlaps(cj.box)) continue;
-        // (earlier point, later point) in (body, index) order, as the narrow phase expects.
-        if (std::pair{ci.body, ci.point} < std::pair{cj.body, cj.point}) {
-          pairs.emplace_back(ci.body, ci.point, cj.body, cj.point);
-        } else {
-          pairs.emplace_back(cj.body, cj.point, ci.body, ci.point);
-        }
-      }
-    }
-    // 3. Narrow phase in pair order (each pair is found once).
-    std::sort(pairs.begin(), pairs.end());
-    counts.pairs_tested = pairs.size();
-    for (const auto& [bj, kj, bi, k] : pairs) {
-      const Side a{Side::Kind::Embedded, bi, k}, b{Side::Kind::Embedded, bj, kj};
-      pair_contact(a, sweeps[bi][k], b, sweeps[bj][kj], combine(bodies[bi].material, bodies[bj].material), contacts,
-                   counts);
-    }
+  if (!several_pieces) return;
+  std::vector<std::vector<Index>> piece(bodies.size());
+  for (std::size_t bi = 0; bi < bodies.size(); ++bi) {
+    const EmbeddedPoints& points = *bodies[bi].points;
+    piece[bi].resize(points.size());
+    for (std::size_t k = 0; k < points.size(); ++k) piece[bi][k] = (*bodies[bi].tet_fragment)[points.tet[k]];
   }
-  counts.contacts = contacts.size();
+  const std::vector<PointPair> pairs = self_collision_pairs(sweeps, piece);
+  counts.pairs_tested = pairs.size();
+  // Narrow phase in pair order (each pair is found once); the later point is side a.
+  for (const auto& [bj, kj, bi, k] : pairs) {
+    pair_contact(embedded_side(bodies, bi, k), sweeps[bi][k], embedded_side(bodies, bj, kj), sweeps[bj][kj],
+                 combine(bodies[bi].material, bodies[bj].material), contacts, counts);
+  }
+}
+
+ContactKey key(const Contact& c) {
+  return ContactKey{static_cast<std::uint8_t>(c.a.kind), static_cast<std::uint8_t>(c.b.kind), c.a.owner, c.a.point,
+                    c.b.owner, c.b.point};
+}
+
+/// What the response must meet for each contact, warm-started from the last step's
+/// impulses.
+std::vector<ContactConstraint> constraints_of(const std::vector<Contact>& contacts,
+                                              std::span<const CollisionBody> bodies,
+                                              std::span<const Projectile> projectiles,
+                                              const CollisionSettings& settings) {
   std::vector<ContactConstraint> constraints;
   constraints.reserve(contacts.size());
-  const auto key = [](const Contact& c) {
-    return ContactKey{static_cast<std::uint8_t>(c.a.kind), static_cast<std::uint8_t>(c.b.kind), c.a.owner, c.a.point,
-                      c.b.owner, c.b.point};
-  };
   for (const Contact& c : contacts) {
     const double approach = c.normal.dot(side_velocity(c.a, bodies, projectiles) - side_velocity(c.b, bodies, projectiles));
     double warm_start = 0.0;
@@ -396,9 +311,32 @@ ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environm
       const auto found = settings.impulses->find(key(c));
       if (found != settings.impulses->end()) warm_start = found->second;
     }
-    constraints.push_back({response_side(c.a, bodies), response_side(c.b, bodies), c.normal,
-                           contact_target(c, approach, settings), c.friction, warm_start});
+    constraints.push_back({c.a, c.b, c.normal, contact_target(c, approach, settings), c.friction, warm_start});
   }
+  return constraints;
+}
+
+}  // namespace
+
+ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environment& environment,
+                                 std::span<Projectile> projectiles, std::span<const Vec3> projectile_start,
+                                 const CollisionSettings& settings) {
+  ContactCounts counts;
+  const double h = settings.dt;
+  std::vector<SweptPoint> projectile_sweep(projectiles.size());
+  for (std::size_t j = 0; j < projectiles.size(); ++j) {
+    projectile_sweep[j] = {projectile_start[j], projectiles[j].position, projectiles[j].radius};
+  }
+  std::vector<std::vector<SweptPoint>> sweeps;
+  std::vector<AlignedBox> bounds;
+  sweep_points(bodies, sweeps, bounds);
+  std::vector<Contact> contacts;
+  environment_and_projectile_contacts(bodies, sweeps, bounds, environment, projectiles, projectile_sweep, contacts,
+                                      counts);
+  if (settings.self_collision) self_contacts(bodies, sweeps, contacts, counts);
+  counts.contacts = contacts.size();
+
+  std::vector<ContactConstraint> constraints = constraints_of(contacts, bodies, projectiles, settings);
   ContactResponseSettings response;
   response.dt = h;
   response.iterations = settings.iterations;

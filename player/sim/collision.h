@@ -30,6 +30,7 @@
 #include <span>
 #include <vector>
 
+#include "player/sim/broad_phase.h"
 #include "player/sim/environment.h"
 #include "player/sim/implicit_integrator.h"
 
@@ -42,6 +43,16 @@ struct CollisionBody {
   const Matrix3Xd* start_positions = nullptr;  ///< node positions at the start of the step
   const std::vector<Index>* tet_fragment = nullptr;  ///< fragment of each tet (self-collision)
   ContactMaterial material;
+};
+
+/// One side of a contact: a point embedded in a body's tet, a projectile, or a static
+/// obstacle. (owner, point) names it from one step to the next (ContactKey).
+struct ContactSide {
+  enum class Kind : std::uint8_t { Static, Embedded, Projectile } kind = Kind::Static;
+  Index owner = 0;             ///< body or projectile index; Static: which obstacle (ContactKey)
+  Index point = 0;             ///< Embedded: the point's index in its body's collision points
+  TetIndex tet = 0;            ///< Embedded: the tet holding the point
+  Vec4 weight = Vec4::Zero();  ///< Embedded: the point's barycentric coordinates
 };
 
 /// Which contact this is, from one step to the next: each side's kind (static,

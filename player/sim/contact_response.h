@@ -37,14 +37,6 @@
 
 namespace fissure::sim {
 
-/// One side of a contact: a point embedded in a body's tet, a projectile, or nothing
-/// that moves (a static obstacle).
-struct ContactSide {
-  enum class Kind : std::uint8_t { Static, Embedded, Projectile } kind = Kind::Static;
-  Index owner = 0;             ///< body or projectile index
-  TetIndex tet = 0;            ///< Embedded: the tet holding the point
-  Vec4 weight = Vec4::Zero();  ///< Embedded: the point's barycentric coordinates
-};
 
 struct ContactConstraint {
   ContactSide a, b;
