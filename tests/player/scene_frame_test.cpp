@@ -36,17 +36,8 @@ TEST(LoadedScene, KeepsEachBodysRenderMeshInstancesAndFaces) {
 }
 
 TEST(RenderFrame, FollowsTheWorldAndRewritesConnectivityOnlyWhenItChanges) {
-  const TetMesh cage = testing::grid_cage(Vec3(0, 0, 0.05), Vec3(0.6, 0.3, 0.35), 6, 3, 3);
-  sim::BodyDescription bar =
-      testing::describe("bar", cage, sim::Material{.density = 1000, .youngs_modulus = 2e5, .poisson_ratio = 0.3});
-  bar.toughness = 15.0;
-  sim::Environment env;
-  env.ground = sim::Plane{};
-  const sim::Projectile ball{.position = Vec3(0.3, 0.15, 1.5), .velocity = Vec3(0, 0, -40), .radius = 0.08,
-                             .mass = 3.0, .launch_time = 0.02, .material = {}, .launched = false};
-  sim::WorldSettings settings;
-  settings.fracture = true;
-  sim::World world({bar}, env, {ball}, settings);
+  const auto world_ptr = testing::breaking_bar().make();
+  sim::World& world = *world_ptr;
   RenderFrame out;
   update_render_frame(world.frame(0), out);
   EXPECT_TRUE(out.topology_changed);  // the first update always writes it

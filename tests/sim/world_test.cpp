@@ -66,21 +66,11 @@ struct RunSummary {
   Index fragments = 0;
 };
 
-/// A 6×3×3 bar (324 tets: more than one 256-tet chunk per parallel loop) resting on
-/// the ground, broken by a projectile, fragments colliding with each other.
+/// testing::breaking_bar() for 100 steps on `threads` threads.
 RunSummary run_breaking_scene(int threads) {
   const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
-  const TetMesh cage = testing::grid_cage(Vec3(0, 0, 0.05), Vec3(0.6, 0.3, 0.35), 6, 3, 3);
-  BodyDescription bar = describe("bar", cage, Material{.density = 1000, .youngs_modulus = 2e5, .poisson_ratio = 0.3});
-  bar.toughness = 15.0;
-  Environment env;
-  env.ground = Plane{};
-  const Projectile ball{.position = Vec3(0.3, 0.15, 1.5), .velocity = Vec3(0, 0, -40), .radius = 0.08, .mass = 3.0,
-                        .launch_time = 0.02, .material = {}, .launched = false};
-  WorldSettings settings;
-  settings.fracture = true;
-  settings.self_collision = true;
-  World world({bar}, env, {ball}, settings);
+  const auto world_ptr = testing::breaking_bar().make();
+  World& world = *world_ptr;
   RunSummary out;
   for (int i = 0; i < 100; ++i) {
     const StepReport report = world.step();
@@ -132,17 +122,10 @@ TEST(World, BreakingSceneMatchesItsPinnedHash) {
 /// its fracture has run. The failed step must leave the twin exactly as it was: stepped
 /// again with the right settings, it must reach the same state as the world, bit for bit.
 TEST(World, AFailedStepLeavesTheWorldExactlyAsItWas) {
-  const TetMesh cage = testing::grid_cage(Vec3(0, 0, 0.05), Vec3(0.6, 0.3, 0.35), 6, 3, 3);
-  BodyDescription bar = describe("bar", cage, Material{.density = 1000, .youngs_modulus = 2e5, .poisson_ratio = 0.3});
-  bar.toughness = 15.0;
-  Environment env;
-  env.ground = Plane{};
-  const Projectile ball{.position = Vec3(0.3, 0.15, 1.5), .velocity = Vec3(0, 0, -40), .radius = 0.08, .mass = 3.0,
-                        .launch_time = 0.02, .material = {}, .launched = false};
-  WorldSettings settings;
-  settings.fracture = true;
-  settings.self_collision = true;
-  World world({bar}, env, {ball}, settings), twin({bar}, env, {ball}, settings);
+  const testing::SceneParts scene = testing::breaking_bar();
+  const auto world_ptr = scene.make(), twin_ptr = scene.make();
+  World &world = *world_ptr, &twin = *twin_ptr;
+  const WorldSettings settings = scene.settings;
   WorldSettings broken = settings;
   broken.step.gravity = Vec3(0, 0, std::numeric_limits<double>::quiet_NaN());
   int failures = 0;
@@ -178,16 +161,10 @@ TEST(World, AFailedStepLeavesTheWorldExactlyAsItWas) {
 }
 
 TEST(World, TheFrameViewFollowsPositionsSplitsAndFragments) {
-  const TetMesh cage = testing::grid_cage(Vec3(0, 0, 0.05), Vec3(0.6, 0.3, 0.35), 6, 3, 3);
-  BodyDescription bar = describe("bar", cage, Material{.density = 1000, .youngs_modulus = 2e5, .poisson_ratio = 0.3});
-  bar.toughness = 15.0;
-  Environment env;
-  env.ground = Plane{};
-  const Projectile ball{.position = Vec3(0.3, 0.15, 1.5), .velocity = Vec3(0, 0, -40), .radius = 0.08, .mass = 3.0,
-                        .launch_time = 0.02, .material = {}, .launched = false};
-  WorldSettings settings;
-  settings.fracture = true;
-  World world({bar}, env, {ball}, settings);
+  testing::SceneParts scene = testing::breaking_bar();
+  scene.settings.self_collision = false;
+  const auto world_ptr = scene.make();
+  World& world = *world_ptr;
   {
     const BodyFrame rest = world.frame(0);
     for (const Mat3& F : rest.deformation) ASSERT_LT((F - Mat3::Identity()).norm(), 1e-12);
