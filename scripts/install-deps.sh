@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages Fissure needs to build, test and run.
 # Idempotent: packages already present are skipped, so a second run is quick.
+# python3-glad: generates the GL 4.5 core loader at build time; OSMesa and EGL (Mesa,
+# llvmpipe) are the headless renderers; ffmpeg encodes `run --video`.
 # libopenblas0-serial: CHOLMOD's dense kernels; serial so that it neither fights TBB's
 # threads nor changes results with the thread count (the reference BLAS is 3× slower).
 set -euo pipefail
@@ -11,7 +13,8 @@ packages=(
   libassimp-dev libhdf5-dev hdf5-tools
   libcli11-dev libtbb-dev libtomlplusplus-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libglfw3-dev libosmesa6-dev libgl-dev
+  libglfw3-dev libosmesa6-dev libgl-dev libegl-dev libegl-mesa0 libgl1-mesa-dri python3-glad
+  ffmpeg
   libssl-dev
   libsuitesparse-dev libopenblas0-serial
   libbullet-dev

@@ -1,11 +1,12 @@
-// fissure-player: the runtime half of Fissure. A thin CLI over the sim library and
-// the scene reader; rendering (GLFW / OSMesa) is not built yet, so runs are headless.
+// fissure-player: the runtime half of Fissure. A thin CLI over the scene reader, the
+// physics and the headless renderer (frames and video).
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
 #include <cstdio>
 #include <memory>
+#include <tuple>
 
 #include "common/error.h"
 #include "common/log.h"
@@ -27,7 +28,14 @@ int main(int argc, char** argv) {
   int threads = -1;
   std::string report, trajectory;
   run->add_option("scene", scene_path, "Scene file (TOML)")->required();
-  run->add_flag("--no-render", no_render, "Simulate without a window or frames (required: the renderer is not built yet)");
+  run->add_flag("--no-render", no_render, "Make no images (the default without --frames or --video)");
+  std::string frames, video, size = "1280x720", backend = "osmesa";
+  run->add_option("--frames", frames, "Write the frames as PNG files (frame-00000.png …) and frames.json into this folder");
+  run->add_option("--video", video, "Write an H.264 video (needs ffmpeg), e.g. out/drop.mp4");
+  run->add_option("--size", size, "Image size, WIDTHxHEIGHT")->capture_default_str();
+  run->add_option("--fps", options.images.fps, "Frames per simulated second (independent of solver.dt)")->capture_default_str();
+  run->add_option("--backend", backend, "Headless OpenGL: osmesa (software, the default) or egl (surfaceless; a GPU's driver where there is one)")
+      ->capture_default_str();
   run->add_option("--steps", options.steps, "Number of steps of solver.dt")->capture_default_str();
   run->add_option("--report", report, "Write a JSON report (timings per phase, energy, momentum, fragments, penetration)");
   run->add_option("--trajectory", trajectory, "Write node trajectories and fracture events (HDF5)");
@@ -45,9 +53,13 @@ int main(int argc, char** argv) {
   }
   set_log_level(quiet ? LogLevel::Warning : (verbose ? LogLevel::Debug : LogLevel::Info));
   try {
-    if (!no_render) {
-      throw Error("this build has no renderer yet", "pass --no-render to simulate headless");
+    if (no_render && (!frames.empty() || !video.empty())) {
+      throw Error("--no-render contradicts --frames and --video", "leave out --no-render to make images");
     }
+    options.images.frames = frames;
+    options.images.video = video;
+    std::tie(options.images.width, options.images.height) = player::parse_size(size);
+    options.images.backend = render::parse_backend(backend);
     const formats::Scene scene = formats::read_scene(scene_path);
     const int wanted = threads >= 0 ? threads : scene.solver.threads;
     std::unique_ptr<tbb::global_control> limit;

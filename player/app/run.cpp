@@ -1,7 +1,9 @@
 #include "player/app/run.h"
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <optional>
 
@@ -54,6 +56,39 @@ void log_loaded(const formats::Scene& scene, const sim::World& world, double sec
            std::to_string(seconds).substr(0, 5) + " s");
 }
 
+/// Frames at a fixed rate, whatever dt: the physics catches up with each frame's time
+/// (RunLoop::advance), then the frame is drawn. The run covers `steps` × dt seconds.
+RunEnd run_with_frames(RunLoop& loop, const sim::World& world, FrameOutput& images, const RunOptions& options) {
+  const double frame_time = 1.0 / options.images.fps;
+  const auto frames = static_cast<long>(std::floor(static_cast<double>(options.steps) * world.settings().step.dt / frame_time + 1e-9));
+  loop.start();
+  images.capture(world, 0, 0.0);
+  for (long f = 0; f < frames && !loop.stopped(); ++f) {
+    const auto start = Clock::now();
+    // No cap: an offline run never drops simulated time.
+    const FrameAdvance advance = loop.advance(frame_time, std::numeric_limits<int>::max());
+    const double physics_ms = 1e3 * std::chrono::duration<double>(Clock::now() - start).count();
+    if (advance.failed) break;
+    images.capture(world, advance.steps, physics_ms);
+  }
+  return loop.finish();
+}
+
+void print_images(const FrameOptions& options, const FrameOutput& images) {
+  double render = 0, output = 0, uploads = 0;
+  for (const FrameRecord& r : images.records()) {
+    render += r.render_ms;
+    output += r.output_ms;
+    uploads += static_cast<double>(r.upload_bytes);
+  }
+  const double n = static_cast<double>(std::max<std::size_t>(images.records().size(), 1));
+  std::printf("frames     %zu at %d/s, %dx%d (%s): render %.1f ms/frame, output %.1f ms/frame, %.0f bytes uploaded/frame\n",
+              images.records().size(), options.fps, options.width, options.height, images.renderer_description().c_str(),
+              render / n, output / n, uploads / n);
+  if (!options.frames.empty()) std::printf("images     %s\n", (options.frames / "frame-NNNNN.png").string().c_str());
+  if (!options.video.empty()) std::printf("video      %s\n", options.video.string().c_str());
+}
+
 }  // namespace
 
 int run_scene(const formats::Scene& scene, const RunOptions& options) {
@@ -75,7 +110,10 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
   if (trajectory) loop.add(*trajectory);
   ProgressLog progress(options.steps);
   loop.add(progress);
-  const RunEnd end = loop.run_steps(options.steps);
+  std::unique_ptr<FrameOutput> images;
+  if (options.images.wanted()) images = std::make_unique<FrameOutput>(options.images, loaded);
+  const RunEnd end = images ? run_with_frames(loop, loaded.world, *images, options) : loop.run_steps(options.steps);
+  if (images) images->finish();
 
   RunRecord record{scene.file.filename().string(), {}, load_seconds, &statistics, diagnostics ? &*diagnostics : nullptr, end};
   for (const BodyAssets& a : loaded.assets) record.bundles.push_back(a.bundle_name);
@@ -85,6 +123,7 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
     std::printf("report     %s\n", options.report.string().c_str());
   }
   if (trajectory) std::printf("trajectory %s (%zu frames)\n", trajectory->path().string().c_str(), trajectory->frame_count());
+  if (images) print_images(options.images, *images);
   if (end.ok()) return 0;
   const sim::StepFailure failure =
       end.stop ? sim::StepFailure{end.stop->message, end.stop->hint} : loaded.world.explain(end.status);

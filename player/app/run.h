@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "formats/scene.h"
+#include "player/app/frame_output.h"
 
 namespace fissure::player {
 
@@ -14,6 +15,7 @@ struct RunOptions {
   std::filesystem::path trajectory;  ///< HDF5 trajectory; empty: none
   long trajectory_every = 1;         ///< record every k-th step
   bool diagnostics = true;           ///< energies and penetrations every step (timed, outside the step)
+  FrameOptions images;               ///< frames and video; none: no GL context is made
 };
 
 /// Returns the process exit code: 0, or 1 when a step failed (the message names the

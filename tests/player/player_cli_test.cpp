@@ -2,9 +2,11 @@
 // its report and trajectory, and the errors a user meets.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <fstream>
 
 #include "formats/bundle.h"
+#include "formats/image.h"
 #include "tests/support/run_command.h"
 #include "tests/support/temp_dir.h"
 #include "tests/support/two_tet_bundle.h"
@@ -61,10 +63,45 @@ TEST_F(PlayerCli, RunsHeadlessAndWritesReportAndTrajectory) {
   }
 }
 
-TEST_F(PlayerCli, WithoutNoRenderItSaysTheRendererIsMissing) {
-  const auto result = player("run " + quoted(scene("")));
+TEST_F(PlayerCli, WithoutFramesOrVideoItMakesNoImages) {
+  const auto result = player("run " + quoted(scene("")) + " --steps 5");
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_EQ(result.output.find("frames "), std::string::npos) << result.output;
+  EXPECT_EQ(result.output.find("rendering"), std::string::npos) << result.output;  // no GL context either
+}
+
+// 0.5 s at 1/0.004 s steps, 20 frames per second: frames at t = 0, 0.05, …, 0.5.
+TEST_F(PlayerCli, FramesAndVideoComeAtTheirOwnRateWithARecordPerFrame) {
+  const auto frames = dir.path() / "frames", video = dir.path() / "drop.mp4";
+  const auto result = player("run " + quoted(scene("")) + " --steps 125 --fps 20 --size 64x48 --frames " +
+                             quoted(frames) + " --video " + quoted(video));
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  for (int f = 0; f <= 10; ++f) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame-%05d.png", f);
+    const formats::Image image = formats::read_png(frames / name);
+    EXPECT_EQ(image.width, 64);
+    EXPECT_EQ(image.height, 48);
+  }
+  EXPECT_FALSE(std::filesystem::exists(frames / "frame-00011.png"));
+  const std::string records = read_text(frames / "frames.json");
+  for (const char* key : {"\"render_ms\"", "\"physics_ms\"", "\"upload_bytes\"", "\"renderer\""}) {
+    EXPECT_NE(records.find(key), std::string::npos) << key;
+  }
+  EXPECT_GT(std::filesystem::file_size(video), 0u);
+  EXPECT_NE(result.output.find("frames     11 at 20/s"), std::string::npos) << result.output;
+}
+
+TEST_F(PlayerCli, ImageOptionsThatCannotWorkAreErrors) {
+  auto result = player("run " + quoted(scene("")) + " --no-render --frames " + quoted(dir.path() / "f"));
   EXPECT_EQ(result.exit_code, 1);
-  EXPECT_NE(result.output.find("--no-render"), std::string::npos) << result.output;
+  EXPECT_NE(result.output.find("--no-render contradicts"), std::string::npos) << result.output;
+  result = player("run " + quoted(scene("")) + " --size 12x7000000 --frames " + quoted(dir.path() / "f"));
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.output.find("--size"), std::string::npos) << result.output;
+  result = player("run " + quoted(scene("")) + " --backend vulkan --frames " + quoted(dir.path() / "f"));
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.output.find("osmesa"), std::string::npos) << result.output;
 }
 
 TEST_F(PlayerCli, SceneErrorsNameTheFileLineAndKey) {

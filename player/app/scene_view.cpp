@@ -1,0 +1,184 @@
+#include "player/app/scene_view.h"
+
+#include <cmath>
+#include <numbers>
+
+namespace fissure::player {
+
+namespace {
+
+using render::Vec3f;
+
+/// A unit sphere, `rings` × `segments` quads split in two (poles included).
+render::PlainMesh unit_sphere(int rings, int segments) {
+  render::PlainMesh mesh;
+  for (int r = 0; r <= rings; ++r) {
+    const double theta = std::numbers::pi * r / rings;
+    for (int s = 0; s <= segments; ++s) {
+      const double phi = 2.0 * std::numbers::pi * s / segments;
+      const float x = static_cast<float>(std::sin(theta) * std::cos(phi)),
+                  y = static_cast<float>(std::sin(theta) * std::sin(phi)), z = static_cast<float>(std::cos(theta));
+      mesh.positions.insert(mesh.positions.end(), {x, y, z});
+      mesh.normals.insert(mesh.normals.end(), {x, y, z});
+    }
+  }
+  const auto at = [&](int r, int s) { return static_cast<std::uint32_t>(r * (segments + 1) + s); };
+  for (int r = 0; r < rings; ++r) {
+    for (int s = 0; s < segments; ++s) {
+      mesh.triangles.insert(mesh.triangles.end(), {at(r, s), at(r + 1, s), at(r + 1, s + 1)});
+      mesh.triangles.insert(mesh.triangles.end(), {at(r, s), at(r + 1, s + 1), at(r, s + 1)});
+    }
+  }
+  return mesh;
+}
+
+/// An axis-aligned box, each face its own four vertices so normals are flat.
+render::PlainMesh box(const Vec3& lo, const Vec3& hi) {
+  render::PlainMesh mesh;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const int side : {0, 1}) {
+      Vec3f normal = Vec3f::Zero();
+      normal[axis] = side == 0 ? -1.0f : 1.0f;
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      const auto first = static_cast<std::uint32_t>(mesh.positions.size() / 3);
+      for (const auto& [a, b] : {std::pair{0, 0}, {1, 0}, {1, 1}, {0, 1}}) {
+        Vec3 p;
+        p[axis] = side == 0 ? lo[axis] : hi[axis];
+        p[u] = a == 0 ? lo[u] : hi[u];
+        p[v] = b == 0 ? lo[v] : hi[v];
+        mesh.positions.insert(mesh.positions.end(), {float(p.x()), float(p.y()), float(p.z())});
+        mesh.normals.insert(mesh.normals.end(), {normal.x(), normal.y(), normal.z()});
+      }
+      mesh.triangles.insert(mesh.triangles.end(), {first, first + 1, first + 2, first, first + 2, first + 3});
+    }
+  }
+  return mesh;
+}
+
+/// A square of the ground plane, `half` on a side each way from the point under `centre`.
+render::PlainMesh ground_patch(const sim::Plane& plane, const Vec3& centre, double half) {
+  const Vec3 n = plane.normal.normalized();
+  const Vec3 on_plane = centre - (n.dot(centre) - plane.offset) * n;
+  const Vec3 u = n.unitOrthogonal(), v = n.cross(u);
+  render::PlainMesh mesh;
+  for (const auto& [a, b] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}) {
+    const Vec3 p = on_plane + half * (a * u + b * v);
+    mesh.positions.insert(mesh.positions.end(), {float(p.x()), float(p.y()), float(p.z())});
+    mesh.normals.insert(mesh.normals.end(), {float(n.x()), float(n.y()), float(n.z())});
+  }
+  mesh.triangles = {0, 1, 2, 0, 2, 3};
+  mesh.color = Vec3f(0.62f, 0.64f, 0.66f);
+  return mesh;
+}
+
+render::Mat4f placed(const Vec3& centre, double radius) {
+  render::Mat4f m = render::Mat4f::Identity();
+  m.topLeftCorner<3, 3>() *= static_cast<float>(radius);
+  m.topRightCorner<3, 1>() = centre.cast<float>();
+  return m;
+}
+
+Vec3 world_up(const sim::World& world) {
+  if (world.environment().ground) return world.environment().ground->normal.normalized();
+  const Vec3& g = world.settings().step.gravity;
+  return g.norm() > 0.0 ? Vec3(-g.normalized()) : Vec3(Vec3::UnitZ());
+}
+
+}  // namespace
+
+render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::ImplicitIntegrator& body) {
+  const formats::Embedding& e = bundle.embedding;
+  const Matrix3Xd& rest = body.rest_positions();
+  const Matrix4Xu& tets = body.elasticity().tets();
+  const auto corner_position = [&](std::size_t instance, int corner) {
+    const Vec4 b = e.instance_barycentric[instance].col(corner);
+    const TetIndex t = e.instance_tet[instance];
+    return Vec3(b[0] * rest.col(tets(0, t)) + b[1] * rest.col(tets(1, t)) + b[2] * rest.col(tets(2, t)) +
+                b[3] * rest.col(tets(3, t)));
+  };
+  // Smooth normals: each vertex sums its triangles' area-weighted normals, every
+  // triangle placed once (by its first instance; instances are sorted by triangle).
+  Matrix3Xd normals = Matrix3Xd::Zero(3, bundle.render.positions.cols());
+  for (std::size_t i = 0; i < e.instance_count(); ++i) {
+    if (i > 0 && e.instance_triangle[i] == e.instance_triangle[i - 1]) continue;
+    const Vec3 a = corner_position(i, 0), b = corner_position(i, 1), c = corner_position(i, 2);
+    const Vec3 n = (b - a).cross(c - a);
+    for (int j = 0; j < 3; ++j) normals.col(bundle.render.triangles(j, e.instance_triangle[i])) += n;
+  }
+  render::EmbeddedMesh mesh;
+  mesh.barycentric.reserve(12 * e.instance_count());
+  for (std::size_t i = 0; i < e.instance_count(); ++i) {
+    for (int j = 0; j < 3; ++j) {
+      const Vec4 b = e.instance_barycentric[i].col(j);
+      mesh.barycentric.insert(mesh.barycentric.end(), {float(b[0]), float(b[1]), float(b[2]), float(b[3])});
+      mesh.tet.push_back(e.instance_tet[i]);
+      const Vec3 n = normals.col(bundle.render.triangles(j, e.instance_triangle[i])).normalized();
+      mesh.rest_normal.insert(mesh.rest_normal.end(), {float(n.x()), float(n.y()), float(n.z())});
+    }
+  }
+  return mesh;
+}
+
+SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& assets, render::Renderer& renderer)
+    : m_renderer(renderer), m_frames(world.bodies().size()) {
+  Eigen::AlignedBox3d bounds;
+  for (std::size_t b = 0; b < world.bodies().size(); ++b) {
+    const sim::ImplicitIntegrator& body = world.bodies()[b].integrator();
+    m_bodies.push_back(renderer.add_body(embedded_mesh(assets[b].bundle, body)));
+    for (Eigen::Index n = 0; n < body.positions().cols(); ++n) bounds.extend(Vec3(body.positions().col(n)));
+  }
+  if (bounds.isEmpty()) bounds.extend(Vec3::Zero());
+  const double size = std::max(bounds.diagonal().norm(), 1e-3);
+  const sim::Environment& environment = world.environment();
+  if (environment.ground) renderer.add_plain(ground_patch(*environment.ground, bounds.center(), 25.0 * size));
+  for (const sim::Box& b : environment.boxes) renderer.add_plain(box(b.min, b.max));
+  const render::PlainMesh sphere = unit_sphere(24, 48);
+  for (const sim::Ball& b : environment.balls) renderer.set_transform(renderer.add_plain(sphere), placed(b.center, b.radius));
+  render::PlainMesh projectile = sphere;
+  projectile.color = Vec3f(0.75f, 0.30f, 0.22f);
+  for (std::size_t j = 0; j < world.projectiles().size(); ++j) m_projectiles.push_back(renderer.add_plain(projectile));
+  // Frame the bodies with a margin of a third of their size (update() follows them):
+  // from the front, a little above, with the world's up (the ground's normal, else
+  // against gravity) at the top, and the light above.
+  const Vec3 margin = 0.35 * (bounds.max() - bounds.min());
+  const Eigen::AlignedBox3f view_box((bounds.min() - margin).cast<float>(), (bounds.max() + margin).cast<float>());
+  const float aspect = static_cast<float>(renderer.width()) / static_cast<float>(renderer.height());
+  const Vec3f up = world_up(world).cast<float>();
+  const Eigen::Quaternionf z_to_up = Eigen::Quaternionf::FromTwoVectors(Vec3f::UnitZ(), up);
+  m_camera = render::frame_box(view_box, z_to_up * Vec3f(-0.55f, 0.75f, -0.38f), up, 35.0f, aspect);
+  m_start_centre = bounds.center();
+  render::Light light;
+  light.towards = z_to_up * light.towards;
+  renderer.set_light(light);
+  update(world);
+}
+
+void SceneView::update(const sim::World& world) {
+  // Follow the bodies' centre (of their nodes' bounds), keeping the starting view's offset.
+  Eigen::AlignedBox3d bounds;
+  for (const sim::Body& body : world.bodies()) {
+    const Matrix3Xd& x = body.integrator().positions();
+    for (Eigen::Index n = 0; n < x.cols(); ++n) {
+      if (x.col(n).allFinite()) bounds.extend(Vec3(x.col(n)));
+    }
+  }
+  render::Camera camera = m_camera;
+  if (!bounds.isEmpty()) {
+    const Vec3f shift = (bounds.center() - m_start_centre).cast<float>();
+    camera.eye += shift;
+    camera.target += shift;
+  }
+  m_renderer.set_camera(camera);
+  for (std::size_t b = 0; b < m_bodies.size(); ++b) {
+    update_render_frame(world.frame(b), m_frames[b]);
+    const RenderFrame& f = m_frames[b];
+    m_renderer.set_pose(m_bodies[b], {f.positions, f.deformation, f.tets, f.topology_version});
+  }
+  for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
+    const sim::Projectile& p = world.projectiles()[j];
+    m_renderer.set_visible(m_projectiles[j], p.launched);
+    m_renderer.set_transform(m_projectiles[j], placed(p.position, p.radius));
+  }
+}
+
+}  // namespace fissure::player

@@ -1,0 +1,39 @@
+#pragma once
+/// What the player draws of a world: each body's embedded render mesh (from its
+/// bundle), the ground, the static boxes and balls, and the projectiles; a camera that
+/// frames the bodies and follows them (a hit can send a body metres away). update()
+/// poses everything from the world's current state.
+
+#include <cstddef>
+#include <vector>
+
+#include "player/app/render_frame.h"
+#include "player/app/scene_loader.h"
+#include "player/render/renderer.h"
+
+namespace fissure::player {
+
+/// Body `body`'s instances as the renderer takes them, with smooth rest normals
+/// computed from the render mesh placed by the world's rest cage (so in world axes,
+/// whatever the object's rotation and scale).
+render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::ImplicitIntegrator& body);
+
+class SceneView {
+ public:
+  /// Adds the world's bodies and obstacles to `renderer` and frames the camera.
+  SceneView(const sim::World& world, const std::vector<BodyAssets>& assets, render::Renderer& renderer);
+
+  /// Poses every body and projectile as the world is now (the renderer counts the bytes
+  /// this uploads: positions, gradients, and tets only when fracture changed them).
+  void update(const sim::World& world);
+
+ private:
+  render::Renderer& m_renderer;
+  std::vector<std::size_t> m_bodies;       ///< renderer handle per body
+  std::vector<RenderFrame> m_frames;       ///< per body
+  std::vector<std::size_t> m_projectiles;  ///< renderer handle per projectile
+  render::Camera m_camera;                 ///< as framed at the start; update() moves it with the bodies
+  Vec3 m_start_centre;                     ///< the bodies' centre at the start
+};
+
+}  // namespace fissure::player

@@ -1,0 +1,286 @@
+#include "player/render/renderer.h"
+
+#include <glad/gl.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include "common/error.h"
+#include "player/render/gpu_buffer.h"
+#include "player/render/shader_program.h"
+
+namespace fissure::render {
+
+namespace {
+
+/// One corner of an embedded instance, as the vertex shader reads it.
+struct EmbeddedCorner {
+  float barycentric[4];
+  std::uint32_t tet;
+  float rest_normal[3];
+};
+static_assert(sizeof(EmbeddedCorner) == 32);
+
+struct EmbeddedBody {
+  GlName vertices{GlName::Kind::Buffer};
+  GlName vertex_array{GlName::Kind::VertexArray};
+  GLsizei corners = 0;
+  Vec3f color;
+  StorageBuffer nodes, tets, deformation;
+  std::uint64_t topology_version = ~std::uint64_t{0};
+  bool posed = false, visible = true;
+};
+
+struct PlainBody {
+  GlName vertices{GlName::Kind::Buffer};
+  GlName indices{GlName::Kind::Buffer};
+  GlName vertex_array{GlName::Kind::VertexArray};
+  GLsizei index_count = 0;
+  Vec3f color;
+  Mat4f transform = Mat4f::Identity();
+  bool visible = true;
+};
+
+Mat4f look_at(const Camera& c) {
+  const Vec3f f = (c.target - c.eye).normalized();
+  const Vec3f s = f.cross(c.up).normalized();
+  const Vec3f u = s.cross(f);
+  Mat4f m = Mat4f::Identity();
+  m.block<1, 3>(0, 0) = s.transpose();
+  m.block<1, 3>(1, 0) = u.transpose();
+  m.block<1, 3>(2, 0) = -f.transpose();
+  m(0, 3) = -s.dot(c.eye);
+  m(1, 3) = -u.dot(c.eye);
+  m(2, 3) = f.dot(c.eye);
+  return m;
+}
+
+Mat4f perspective(const Camera& c, float aspect) {
+  const float t = 1.0f / std::tan(0.5f * c.fov_y_degrees * std::numbers::pi_v<float> / 180.0f);
+  const float n = c.near_plane, f = c.far_plane;
+  Mat4f m = Mat4f::Zero();
+  m(0, 0) = t / aspect;
+  m(1, 1) = t;
+  m(2, 2) = (f + n) / (n - f);
+  m(2, 3) = 2.0f * f * n / (n - f);
+  m(3, 2) = -1.0f;
+  return m;
+}
+
+void set_vertex_attribute(GLuint vao, GLuint index, GLint size, GLenum type, GLuint offset, bool integer) {
+  glEnableVertexArrayAttrib(vao, index);
+  if (integer) {
+    glVertexArrayAttribIFormat(vao, index, size, type, offset);
+  } else {
+    glVertexArrayAttribFormat(vao, index, size, type, GL_FALSE, offset);
+  }
+  glVertexArrayAttribBinding(vao, index, 0);
+}
+
+}  // namespace
+
+Camera frame_box(const Eigen::AlignedBox3f& box, const Vec3f& direction, const Vec3f& up, float fov_y_degrees,
+                 float aspect) {
+  Camera c;
+  c.up = up.normalized();
+  c.fov_y_degrees = fov_y_degrees;
+  c.target = box.center();
+  const float radius = std::max(0.5f * box.diagonal().norm(), 1e-3f);
+  const float half_fov = 0.5f * std::min(fov_y_degrees, fov_y_degrees * aspect) * std::numbers::pi_v<float> / 180.0f;
+  const float distance = radius / std::sin(half_fov);
+  c.eye = c.target - distance * direction.normalized();
+  if (std::abs(direction.normalized().dot(c.up)) > 0.99f) c.up = c.up.unitOrthogonal();
+  c.near_plane = std::max(distance - 4.0f * radius, 1e-3f * distance);
+  c.far_plane = distance + 40.0f * radius;
+  return c;
+}
+
+struct Renderer::Impl {
+  int width, height;
+  GlName framebuffer{GlName::Kind::Framebuffer};
+  GlName color{GlName::Kind::Renderbuffer};
+  GlName depth{GlName::Kind::Renderbuffer};
+  ShaderProgram embedded, plain;
+  std::vector<std::unique_ptr<EmbeddedBody>> bodies;
+  std::vector<std::unique_ptr<PlainBody>> plains;
+  Camera camera;
+  Light light;
+  Vec3f background = Vec3f(0.93f, 0.94f, 0.96f);
+  RenderStats stats;
+  std::size_t pending_upload = 0;
+
+  Impl(int w, int h)
+      : width(w),
+        height(h),
+        embedded({embedded_shader("embedded.vert.glsl"), embedded_shader("embedded.frag.glsl"),
+                  embedded_shader("lighting.frag.glsl")}),
+        plain({embedded_shader("plain.vert.glsl"), embedded_shader("plain.frag.glsl"),
+               embedded_shader("lighting.frag.glsl")}) {
+    glNamedRenderbufferStorage(color.get(), GL_RGBA8, w, h);
+    glNamedRenderbufferStorage(depth.get(), GL_DEPTH_COMPONENT24, w, h);
+    glNamedFramebufferRenderbuffer(framebuffer.get(), GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color.get());
+    glNamedFramebufferRenderbuffer(framebuffer.get(), GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth.get());
+    if (glCheckNamedFramebufferStatus(framebuffer.get(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+      throw Error("the render target (" + std::to_string(w) + "×" + std::to_string(h) + ") is incomplete",
+                  "try a smaller --size");
+    }
+  }
+
+  void set_common_uniforms(const ShaderProgram& program, const Mat4f& view_projection) const {
+    program.use();
+    glUniformMatrix4fv(program.uniform("view_projection"), 1, GL_FALSE, view_projection.data());
+    glUniform3fv(program.uniform("eye"), 1, camera.eye.data());
+    glUniform3fv(program.uniform("light_towards"), 1, light.towards.data());
+    glUniform1f(program.uniform("ambient"), light.ambient);
+  }
+
+  void draw_bodies(const Mat4f& view_projection) {
+    set_common_uniforms(embedded, view_projection);
+    for (const auto& body : bodies) {
+      if (!body->visible || !body->posed || body->corners == 0) continue;
+      glUniform3fv(embedded.uniform("base_color"), 1, body->color.data());
+      body->nodes.bind(0);
+      body->tets.bind(1);
+      body->deformation.bind(2);
+      glBindVertexArray(body->vertex_array.get());
+      glDrawArrays(GL_TRIANGLES, 0, body->corners);
+    }
+  }
+
+  void draw_plains(const Mat4f& view_projection) {
+    set_common_uniforms(plain, view_projection);
+    for (const auto& mesh : plains) {
+      if (!mesh->visible || mesh->index_count == 0) continue;
+      glUniform3fv(plain.uniform("base_color"), 1, mesh->color.data());
+      glUniformMatrix4fv(plain.uniform("model"), 1, GL_FALSE, mesh->transform.data());
+      glBindVertexArray(mesh->vertex_array.get());
+      glDrawElements(GL_TRIANGLES, mesh->index_count, GL_UNSIGNED_INT, nullptr);
+    }
+  }
+};
+
+Renderer::Renderer(int width, int height) {
+  if (width < 1 || height < 1 || width > 16384 || height > 16384) {
+    throw Error("image size " + std::to_string(width) + "×" + std::to_string(height) + " is out of range",
+                "use a size from 1×1 to 16384×16384, e.g. --size 1280x720");
+  }
+  m_impl = std::make_unique<Impl>(width, height);
+}
+
+Renderer::~Renderer() = default;
+
+int Renderer::width() const { return m_impl->width; }
+int Renderer::height() const { return m_impl->height; }
+
+std::size_t Renderer::add_body(const EmbeddedMesh& mesh) {
+  const std::size_t corners = mesh.tet.size();
+  if (mesh.barycentric.size() != 4 * corners || mesh.rest_normal.size() != 3 * corners || corners % 3 != 0) {
+    throw Error("embedded mesh: " + std::to_string(corners) + " corners with " +
+                    std::to_string(mesh.barycentric.size()) + " barycentric and " +
+                    std::to_string(mesh.rest_normal.size()) + " normal values",
+                "give 3 corners per instance, 4 barycentric and 3 normal values per corner");
+  }
+  std::vector<EmbeddedCorner> data(corners);
+  for (std::size_t k = 0; k < corners; ++k) {
+    std::copy_n(&mesh.barycentric[4 * k], 4, data[k].barycentric);
+    data[k].tet = mesh.tet[k];
+    std::copy_n(&mesh.rest_normal[3 * k], 3, data[k].rest_normal);
+  }
+  auto body = std::make_unique<EmbeddedBody>();
+  body->corners = static_cast<GLsizei>(corners);
+  body->color = mesh.color;
+  const GLuint vao = body->vertex_array.get();
+  glNamedBufferStorage(body->vertices.get(), static_cast<GLsizeiptr>(std::max<std::size_t>(1, data.size()) * sizeof(EmbeddedCorner)),
+                       data.empty() ? nullptr : data.data(), 0);
+  glVertexArrayVertexBuffer(vao, 0, body->vertices.get(), 0, sizeof(EmbeddedCorner));
+  set_vertex_attribute(vao, 0, 4, GL_FLOAT, offsetof(EmbeddedCorner, barycentric), false);
+  set_vertex_attribute(vao, 1, 1, GL_UNSIGNED_INT, offsetof(EmbeddedCorner, tet), true);
+  set_vertex_attribute(vao, 2, 3, GL_FLOAT, offsetof(EmbeddedCorner, rest_normal), false);
+  m_impl->pending_upload += data.size() * sizeof(EmbeddedCorner);
+  m_impl->bodies.push_back(std::move(body));
+  return m_impl->bodies.size() - 1;
+}
+
+void Renderer::set_pose(std::size_t index, const BodyPose& pose) {
+  EmbeddedBody& body = *m_impl->bodies.at(index);
+  std::size_t& bytes = m_impl->pending_upload;
+  bytes += body.nodes.upload(pose.positions.data(), pose.positions.size_bytes());
+  bytes += body.deformation.upload(pose.deformation.data(), pose.deformation.size_bytes());
+  if (pose.topology_version != body.topology_version) {
+    bytes += body.tets.upload(pose.tets.data(), pose.tets.size_bytes());
+    body.topology_version = pose.topology_version;
+  }
+  body.posed = true;
+}
+
+std::size_t Renderer::add_plain(const PlainMesh& mesh) {
+  if (mesh.normals.size() != mesh.positions.size() || mesh.positions.size() % 3 != 0 || mesh.triangles.size() % 3 != 0) {
+    throw Error("plain mesh: positions, normals and triangles do not match", "give 3 values per vertex and per triangle");
+  }
+  auto body = std::make_unique<PlainBody>();
+  std::vector<float> interleaved;
+  interleaved.reserve(2 * mesh.positions.size());
+  for (std::size_t v = 0; v < mesh.positions.size() / 3; ++v) {
+    interleaved.insert(interleaved.end(), &mesh.positions[3 * v], &mesh.positions[3 * v] + 3);
+    interleaved.insert(interleaved.end(), &mesh.normals[3 * v], &mesh.normals[3 * v] + 3);
+  }
+  glNamedBufferStorage(body->vertices.get(), static_cast<GLsizeiptr>(std::max<std::size_t>(1, interleaved.size()) * sizeof(float)),
+                       interleaved.empty() ? nullptr : interleaved.data(), 0);
+  glNamedBufferStorage(body->indices.get(),
+                       static_cast<GLsizeiptr>(std::max<std::size_t>(1, mesh.triangles.size()) * sizeof(std::uint32_t)),
+                       mesh.triangles.empty() ? nullptr : mesh.triangles.data(), 0);
+  const GLuint vao = body->vertex_array.get();
+  glVertexArrayVertexBuffer(vao, 0, body->vertices.get(), 0, 6 * sizeof(float));
+  glVertexArrayElementBuffer(vao, body->indices.get());
+  set_vertex_attribute(vao, 0, 3, GL_FLOAT, 0, false);
+  set_vertex_attribute(vao, 1, 3, GL_FLOAT, 3 * sizeof(float), false);
+  body->index_count = static_cast<GLsizei>(mesh.triangles.size());
+  body->color = mesh.color;
+  m_impl->pending_upload += interleaved.size() * sizeof(float) + mesh.triangles.size() * sizeof(std::uint32_t);
+  m_impl->plains.push_back(std::move(body));
+  return m_impl->plains.size() - 1;
+}
+
+void Renderer::set_transform(std::size_t plain, const Mat4f& transform) { m_impl->plains.at(plain)->transform = transform; }
+void Renderer::set_visible(std::size_t plain, bool visible) { m_impl->plains.at(plain)->visible = visible; }
+void Renderer::set_body_visible(std::size_t body, bool visible) { m_impl->bodies.at(body)->visible = visible; }
+void Renderer::set_camera(const Camera& camera) { m_impl->camera = camera; }
+void Renderer::set_light(const Light& light) { m_impl->light = light; }
+void Renderer::set_background(const Vec3f& color) { m_impl->background = color; }
+const RenderStats& Renderer::last_stats() const { return m_impl->stats; }
+
+void Renderer::render(std::vector<std::uint8_t>& rgba) {
+  const auto start = std::chrono::steady_clock::now();
+  Impl& r = *m_impl;
+  glBindFramebuffer(GL_FRAMEBUFFER, r.framebuffer.get());
+  glViewport(0, 0, r.width, r.height);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LEQUAL);
+  glDisable(GL_CULL_FACE);
+  glClearColor(r.background.x(), r.background.y(), r.background.z(), 1.0f);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  const Mat4f view_projection =
+      perspective(r.camera, static_cast<float>(r.width) / static_cast<float>(r.height)) * look_at(r.camera);
+  r.draw_plains(view_projection);
+  r.draw_bodies(view_projection);
+  const std::size_t row = 4 * static_cast<std::size_t>(r.width);
+  rgba.resize(row * static_cast<std::size_t>(r.height));
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, 0, r.width, r.height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+  // GL's rows start at the bottom; images start at the top.
+  for (int y = 0; y < r.height / 2; ++y) {
+    std::swap_ranges(rgba.begin() + static_cast<std::ptrdiff_t>(y * row),
+                     rgba.begin() + static_cast<std::ptrdiff_t>((y + 1) * row),
+                     rgba.begin() + static_cast<std::ptrdiff_t>((r.height - 1 - y) * row));
+  }
+  const GLenum error = glGetError();
+  if (error != GL_NO_ERROR) {
+    throw Error("OpenGL error 0x" + std::to_string(error) + " while drawing", "this is a bug; please report it");
+  }
+  r.stats.upload_bytes = std::exchange(r.pending_upload, 0);
+  r.stats.draw_ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace fissure::render

@@ -1,0 +1,111 @@
+#pragma once
+/// The renderer (thesis chapter V; DESIGN.md, Rendering): draws the embedded render
+/// meshes from the cage's motion, plus plain meshes (ground, obstacles, projectiles),
+/// into its own framebuffer, and reads the image back. GL-free interface: the app hands
+/// it float and integer spans (player/app/render_frame.h); it never sees the physics.
+///
+/// Embedded mesh (V.A): each (triangle, tet) instance is three vertices holding their
+/// barycentric coordinates in that tet, in a static buffer uploaded once. Per frame only
+/// the node positions and the tets' deformation gradients go up (and the tet→node table
+/// when fracture changed it); the vertex shader places each vertex from its tet's
+/// nodes, the fragment shader discards what lies outside the tet (so an instance
+/// duplicated in several tets shows each tet's part once), and normals follow the
+/// deformation through the cofactor of F (F⁻ᵀ det F): exact for any affine map,
+/// shear and stretch included, where the rotation alone is not.
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+namespace fissure::render {
+
+using Vec3f = Eigen::Vector3f;
+using Mat4f = Eigen::Matrix4f;
+
+struct Camera {
+  Vec3f eye = Vec3f(2, -2, 1.5);
+  Vec3f target = Vec3f::Zero();
+  Vec3f up = Vec3f::UnitZ();
+  float fov_y_degrees = 35;
+  float near_plane = 0.01f, far_plane = 100.0f;
+};
+
+/// A camera looking along `direction` at `box` from far enough to see all of it, `up`
+/// (the world's up) at the top of the image.
+Camera frame_box(const Eigen::AlignedBox3f& box, const Vec3f& direction, const Vec3f& up, float fov_y_degrees,
+                 float aspect);
+
+struct Light {
+  Vec3f towards = Vec3f(0.4f, -0.5f, 1.0f).normalized();  ///< unit, from the scene to the light
+  float ambient = 0.25f;
+};
+
+/// One body's embedded mesh, static: three corners per instance.
+struct EmbeddedMesh {
+  std::vector<float> barycentric;      ///< 4 per corner: the corner in its tet's barycentric coordinates
+  std::vector<std::uint32_t> tet;      ///< 1 per corner
+  std::vector<float> rest_normal;      ///< 3 per corner: the vertex normal at rest, in world axes
+  Vec3f color = Vec3f(0.78f, 0.74f, 0.68f);
+};
+
+/// One body's cage as it is this frame.
+struct BodyPose {
+  std::span<const float> positions;      ///< 3 per node [m]
+  std::span<const float> deformation;    ///< 9 per tet: F, column-major
+  std::span<const std::uint32_t> tets;   ///< 4 per tet
+  std::uint64_t topology_version = 0;    ///< `tets` is uploaded only when this changes
+};
+
+/// A plain indexed triangle mesh in its own frame, placed by `transform`.
+struct PlainMesh {
+  std::vector<float> positions;          ///< 3 per vertex
+  std::vector<float> normals;            ///< 3 per vertex
+  std::vector<std::uint32_t> triangles;  ///< 3 per triangle
+  Vec3f color = Vec3f(0.5f, 0.5f, 0.5f);
+};
+
+/// What the last render() cost.
+struct RenderStats {
+  std::size_t upload_bytes = 0;  ///< sent to the GPU since the previous render
+  double draw_ms = 0;            ///< drawing and reading the image back (CPU wall clock, GPU work included)
+};
+
+class Renderer {
+ public:
+  /// Needs a current GL 4.5 core context (context.h). Throws fissure::Error when a
+  /// shader does not build or the framebuffer cannot be made.
+  Renderer(int width, int height);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  [[nodiscard]] int width() const;
+  [[nodiscard]] int height() const;
+
+  /// Adds a body; returns its handle. Its pose must be set before it is drawn.
+  std::size_t add_body(const EmbeddedMesh& mesh);
+  void set_pose(std::size_t body, const BodyPose& pose);
+  /// Adds a plain mesh (identity transform, visible); returns its handle.
+  std::size_t add_plain(const PlainMesh& mesh);
+  void set_transform(std::size_t plain, const Mat4f& transform);
+  void set_visible(std::size_t plain, bool visible);
+  void set_body_visible(std::size_t body, bool visible);
+
+  void set_camera(const Camera& camera);
+  void set_light(const Light& light);
+  void set_background(const Vec3f& color);
+
+  /// Draws everything and reads the image back into `rgba`: width × height × 4 bytes,
+  /// top row first.
+  void render(std::vector<std::uint8_t>& rgba);
+  [[nodiscard]] const RenderStats& last_stats() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> m_impl;
+};
+
+}  // namespace fissure::render
