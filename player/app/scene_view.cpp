@@ -3,6 +3,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "common/tet_mesh.h"
+
 namespace fissure::player {
 
 namespace {
@@ -86,6 +88,35 @@ Vec3 world_up(const sim::World& world) {
 
 }  // namespace
 
+/// The walls' per-slot tables (renderer.h): which tile each (tet, local face) shows,
+/// and where each of its corners sits in the tile (texel (i, j) lies at face point
+/// n0 + u (n1 − n0) + v (n2 − n0) with (n0, n1, n2) the face's nodes in the table).
+void add_wall_tables(const formats::Bundle& bundle, render::EmbeddedMesh& mesh) {
+  const std::size_t tets = bundle.cage.tet_count();
+  mesh.face_tile.assign(4 * tets, render::kWallNone);
+  mesh.face_uv.assign(24 * tets, 0.0f);
+  if (!bundle.walls) return;  // no walls stage: which part of a face is solid is unknown
+  const formats::Walls& w = *bundle.walls;
+  for (TetIndex t = 0; t < tets; ++t) {
+    for (int k = 0; k < 4; ++k) {
+      const std::size_t slot = 4 * static_cast<std::size_t>(t) + static_cast<std::size_t>(k);
+      const FaceIndex f = bundle.faces.tet_faces(k, t);
+      const formats::FaceClass cls = w.face_class[f];
+      mesh.face_tile[slot] = cls == formats::FaceClass::Crossing ? static_cast<std::int32_t>(w.face_tile[f])
+                             : cls == formats::FaceClass::Inside ? render::kWallWhole
+                                                                 : render::kWallNone;
+      for (int j = 0; j < 3; ++j) {
+        const Index node = bundle.cage.tets(kTetFaceNodes[k][j], t);
+        float* uv = &mesh.face_uv[6 * slot + 2 * static_cast<std::size_t>(j)];
+        uv[0] = node == bundle.faces.nodes(1, f) ? 1.0f : 0.0f;
+        uv[1] = node == bundle.faces.nodes(2, f) ? 1.0f : 0.0f;
+      }
+    }
+  }
+  mesh.tile_resolution = static_cast<int>(w.resolution);
+  mesh.tiles = w.sdf;
+}
+
 render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::ImplicitIntegrator& body) {
   const formats::Embedding& e = bundle.embedding;
   const Matrix3Xd& rest = body.rest_positions();
@@ -116,6 +147,7 @@ render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::Imp
       mesh.rest_normal.insert(mesh.rest_normal.end(), {float(n.x()), float(n.y()), float(n.z())});
     }
   }
+  add_wall_tables(bundle, mesh);
   return mesh;
 }
 
@@ -172,7 +204,7 @@ void SceneView::update(const sim::World& world) {
   for (std::size_t b = 0; b < m_bodies.size(); ++b) {
     update_render_frame(world.frame(b), m_frames[b]);
     const RenderFrame& f = m_frames[b];
-    m_renderer.set_pose(m_bodies[b], {f.positions, f.deformation, f.tets, f.topology_version});
+    m_renderer.set_pose(m_bodies[b], {f.positions, f.deformation, f.tets, f.faces, f.topology_version});
   }
   for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
     const sim::Projectile& p = world.projectiles()[j];

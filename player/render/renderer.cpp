@@ -23,15 +23,43 @@ struct EmbeddedCorner {
 };
 static_assert(sizeof(EmbeddedCorner) == 32);
 
+/// BodyPose::faces' value of a face fracture opened (sim::FaceState::Fractured).
+constexpr std::uint8_t kFaceFractured = 2;
+
 struct EmbeddedBody {
   GlName vertices{GlName::Kind::Buffer};
   GlName vertex_array{GlName::Kind::VertexArray};
   GLsizei corners = 0;
-  Vec3f color;
+  Vec3f color, interior_color;
   StorageBuffer nodes, tets, deformation;
   std::uint64_t topology_version = ~std::uint64_t{0};
   bool posed = false, visible = true;
+  // Walls: the static per-slot tables and tiles, and the slots fracture opened.
+  StorageBuffer face_tile, face_uv, walls;
+  std::vector<std::int32_t> face_tile_host;
+  GLsizei wall_count = 0;
+  GLuint tiles = 0;  ///< GL_TEXTURE_2D_ARRAY, 0 without tiles
+  ~EmbeddedBody() {
+    if (tiles != 0) glDeleteTextures(1, &tiles);
+  }
 };
+
+/// The signed-distance tiles as one texture array, filtered linearly.
+GLuint upload_tiles(const EmbeddedMesh& mesh) {
+  const int res = mesh.tile_resolution;
+  if (res <= 0 || mesh.tiles.empty()) return 0;
+  const auto count = static_cast<GLsizei>(mesh.tiles.size() / (static_cast<std::size_t>(res) * res));
+  GLuint texture = 0;
+  glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &texture);
+  glTextureStorage3D(texture, 1, GL_R8, res, res, count);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTextureSubImage3D(texture, 0, 0, 0, 0, res, res, count, GL_RED, GL_UNSIGNED_BYTE, mesh.tiles.data());
+  glTextureParameteri(texture, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(texture, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(texture, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  return texture;
+}
 
 struct PlainBody {
   GlName vertices{GlName::Kind::Buffer};
@@ -102,7 +130,9 @@ struct Renderer::Impl {
   GlName framebuffer{GlName::Kind::Framebuffer};
   GlName color{GlName::Kind::Renderbuffer};
   GlName depth{GlName::Kind::Renderbuffer};
-  ShaderProgram embedded, plain;
+  ShaderProgram embedded, plain, wall;
+  GlName empty_vertex_array{GlName::Kind::VertexArray};  ///< walls read everything from storage buffers
+  bool walls_visible = true;
   std::vector<std::unique_ptr<EmbeddedBody>> bodies;
   std::vector<std::unique_ptr<PlainBody>> plains;
   Camera camera;
@@ -117,7 +147,9 @@ struct Renderer::Impl {
         embedded({embedded_shader("embedded.vert.glsl"), embedded_shader("embedded.frag.glsl"),
                   embedded_shader("lighting.frag.glsl")}),
         plain({embedded_shader("plain.vert.glsl"), embedded_shader("plain.frag.glsl"),
-               embedded_shader("lighting.frag.glsl")}) {
+               embedded_shader("lighting.frag.glsl")}),
+        wall({embedded_shader("wall.vert.glsl"), embedded_shader("wall.frag.glsl"),
+              embedded_shader("lighting.frag.glsl")}) {
     glNamedRenderbufferStorage(color.get(), GL_RGBA8, w, h);
     glNamedRenderbufferStorage(depth.get(), GL_DEPTH_COMPONENT24, w, h);
     glNamedFramebufferRenderbuffer(framebuffer.get(), GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color.get());
@@ -146,6 +178,24 @@ struct Renderer::Impl {
       body->deformation.bind(2);
       glBindVertexArray(body->vertex_array.get());
       glDrawArrays(GL_TRIANGLES, 0, body->corners);
+    }
+  }
+
+  void draw_walls(const Mat4f& view_projection) {
+    if (!walls_visible) return;
+    set_common_uniforms(wall, view_projection);
+    glUniform1i(wall.uniform("tiles"), 0);
+    glBindVertexArray(empty_vertex_array.get());
+    for (const auto& body : bodies) {
+      if (!body->visible || !body->posed || body->wall_count == 0) continue;
+      glUniform3fv(wall.uniform("base_color"), 1, body->interior_color.data());
+      glBindTextureUnit(0, body->tiles);
+      body->nodes.bind(0);
+      body->tets.bind(1);
+      body->walls.bind(3);
+      body->face_tile.bind(4);
+      body->face_uv.bind(5);
+      glDrawArrays(GL_TRIANGLES, 0, 3 * body->wall_count);
     }
   }
 
@@ -199,6 +249,17 @@ std::size_t Renderer::add_body(const EmbeddedMesh& mesh) {
   set_vertex_attribute(vao, 1, 1, GL_UNSIGNED_INT, offsetof(EmbeddedCorner, tet), true);
   set_vertex_attribute(vao, 2, 3, GL_FLOAT, offsetof(EmbeddedCorner, rest_normal), false);
   m_impl->pending_upload += data.size() * sizeof(EmbeddedCorner);
+  if (mesh.face_uv.size() != 6 * mesh.face_tile.size()) {
+    throw Error("embedded mesh: " + std::to_string(mesh.face_tile.size()) + " face slots with " +
+                    std::to_string(mesh.face_uv.size()) + " uv values",
+                "give 6 uv values per (tet, face) slot");
+  }
+  body->interior_color = mesh.interior_color;
+  body->face_tile_host = mesh.face_tile;
+  m_impl->pending_upload += body->face_tile.upload(mesh.face_tile.data(), mesh.face_tile.size() * sizeof(std::int32_t));
+  m_impl->pending_upload += body->face_uv.upload(mesh.face_uv.data(), mesh.face_uv.size() * sizeof(float));
+  body->tiles = upload_tiles(mesh);
+  m_impl->pending_upload += mesh.tiles.size();
   m_impl->bodies.push_back(std::move(body));
   return m_impl->bodies.size() - 1;
 }
@@ -210,6 +271,15 @@ void Renderer::set_pose(std::size_t index, const BodyPose& pose) {
   bytes += body.deformation.upload(pose.deformation.data(), pose.deformation.size_bytes());
   if (pose.topology_version != body.topology_version) {
     bytes += body.tets.upload(pose.tets.data(), pose.tets.size_bytes());
+    // The walls: the opened slots that show solid (fracture changes only connectivity,
+    // so the per-slot tables made at load time stay valid).
+    std::vector<std::uint32_t> walls;
+    const std::size_t slots = std::min(pose.faces.size(), body.face_tile_host.size());
+    for (std::size_t s = 0; s < slots; ++s) {
+      if (pose.faces[s] == kFaceFractured && body.face_tile_host[s] != kWallNone) walls.push_back(static_cast<std::uint32_t>(s));
+    }
+    bytes += body.walls.upload(walls.data(), walls.size() * sizeof(std::uint32_t));
+    body.wall_count = static_cast<GLsizei>(walls.size());
     body.topology_version = pose.topology_version;
   }
   body.posed = true;
@@ -246,6 +316,7 @@ std::size_t Renderer::add_plain(const PlainMesh& mesh) {
 void Renderer::set_transform(std::size_t plain, const Mat4f& transform) { m_impl->plains.at(plain)->transform = transform; }
 void Renderer::set_visible(std::size_t plain, bool visible) { m_impl->plains.at(plain)->visible = visible; }
 void Renderer::set_body_visible(std::size_t body, bool visible) { m_impl->bodies.at(body)->visible = visible; }
+void Renderer::set_walls_visible(bool visible) { m_impl->walls_visible = visible; }
 void Renderer::set_camera(const Camera& camera) { m_impl->camera = camera; }
 void Renderer::set_light(const Light& light) { m_impl->light = light; }
 void Renderer::set_background(const Vec3f& color) { m_impl->background = color; }
@@ -265,6 +336,7 @@ void Renderer::render(std::vector<std::uint8_t>& rgba) {
       perspective(r.camera, static_cast<float>(r.width) / static_cast<float>(r.height)) * look_at(r.camera);
   r.draw_plains(view_projection);
   r.draw_bodies(view_projection);
+  r.draw_walls(view_projection);
   const std::size_t row = 4 * static_cast<std::size_t>(r.width);
   rgba.resize(row * static_cast<std::size_t>(r.height));
   glPixelStorei(GL_PACK_ALIGNMENT, 1);

@@ -43,12 +43,24 @@ struct Light {
   float ambient = 0.25f;
 };
 
-/// One body's embedded mesh, static: three corners per instance.
+/// What a tet face shows when fracture opens it (thesis V.B), one per (tet, local face).
+inline constexpr std::int32_t kWallWhole = -1;  ///< the face lies inside the solid: drawn whole
+inline constexpr std::int32_t kWallNone = -2;   ///< the face lies outside the solid: never drawn
+
+/// One body's embedded mesh, static: three corners per instance; and its walls.
 struct EmbeddedMesh {
   std::vector<float> barycentric;      ///< 4 per corner: the corner in its tet's barycentric coordinates
   std::vector<std::uint32_t> tet;      ///< 1 per corner
   std::vector<float> rest_normal;      ///< 3 per corner: the vertex normal at rest, in world axes
   Vec3f color = Vec3f(0.78f, 0.74f, 0.68f);
+  /// Walls: per (tet, local face k) slot 4t + k, the face's tile (≥ 0: its signed-distance
+  /// tile decides which part is solid), kWallWhole or kWallNone; and per slot and face
+  /// corner j (local node kTetFaceNodes[k][j]) the corner's (u, v) in the tile.
+  std::vector<std::int32_t> face_tile;
+  std::vector<float> face_uv;          ///< 6 per slot
+  int tile_resolution = 0;             ///< texels per tile side
+  std::vector<std::uint8_t> tiles;     ///< tiles × resolution²: ≥ 128 inside the solid (the bake's SDF)
+  Vec3f interior_color = Vec3f(0.80f, 0.45f, 0.36f);
 };
 
 /// One body's cage as it is this frame.
@@ -56,7 +68,9 @@ struct BodyPose {
   std::span<const float> positions;      ///< 3 per node [m]
   std::span<const float> deformation;    ///< 9 per tet: F, column-major
   std::span<const std::uint32_t> tets;   ///< 4 per tet
-  std::uint64_t topology_version = 0;    ///< `tets` is uploaded only when this changes
+  /// Per (tet, local face) slot: 2 where fracture opened the face (sim::FaceState::Fractured).
+  std::span<const std::uint8_t> faces;
+  std::uint64_t topology_version = 0;    ///< `tets` and `faces` are uploaded only when this changes
 };
 
 /// A plain indexed triangle mesh in its own frame, placed by `transform`.
@@ -93,6 +107,8 @@ class Renderer {
   void set_transform(std::size_t plain, const Mat4f& transform);
   void set_visible(std::size_t plain, bool visible);
   void set_body_visible(std::size_t body, bool visible);
+  /// Whether the walls fracture opened are drawn (on by default).
+  void set_walls_visible(bool visible);
 
   void set_camera(const Camera& camera);
   void set_light(const Light& light);

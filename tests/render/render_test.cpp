@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "bake/bake.h"
 #include "common/error.h"
@@ -20,6 +22,8 @@
 
 namespace fissure {
 namespace {
+
+using render::Vec3f;
 
 constexpr int kSize = 192;
 
@@ -148,6 +152,97 @@ TEST(Render, UnderABendTheEmbeddedMeshHasNoHoles) {
   const std::uint8_t background[3] = {pair.direct.rgba[0], pair.direct.rgba[1], pair.direct.rgba[2]};
   EXPECT_EQ(testing::holes(pair.embedded, pair.direct, background), 0u);
   expect_match(pair, "bent", {.max_abs = 24, .shift = 1, .max_failing_fraction = 5e-3});
+}
+
+// A forced fracture: the cage cut along x = 0.5, its right half moved out of view, and
+// the cut faces marked open. Seen face-on from +x, the left half's walls must cover the
+// sphere's cross-section and nothing else: the cut faces outside the sphere are classed
+// outside the solid, and the crossing ones show only their solid part.
+TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
+  const EmbeddedSphere& s = sphere();
+  bake::BakeOptions options;
+  options.collision = false;
+  const formats::Bundle bundle = bake::embed(s.mesh, s.cage, options, "icosphere", "grid");
+  const TetMesh& cage = s.cage;
+  // The right half's tets take copies of the plane's nodes, 5 m away along y.
+  Matrix3Xd x = cage.rest_positions;
+  Matrix4Xu tets = cage.tets;
+  std::vector<Index> copy(cage.node_count(), kInvalidIndex);
+  for (TetIndex t = 0; t < cage.tet_count(); ++t) {
+    Vec3 centroid = Vec3::Zero();
+    for (int i = 0; i < 4; ++i) centroid += 0.25 * x.col(tets(i, t));
+    if (centroid.x() < 0.5) continue;
+    for (int i = 0; i < 4; ++i) {
+      Index& n = tets(i, t);
+      if (cage.rest_positions(0, n) > 0.5) continue;
+      if (copy[n] == kInvalidIndex) {
+        copy[n] = static_cast<Index>(x.cols());
+        x.conservativeResize(Eigen::NoChange, x.cols() + 1);
+        x.col(copy[n]) = cage.rest_positions.col(n);
+      }
+      n = copy[n];
+    }
+  }
+  for (Eigen::Index n = 0; n < x.cols(); ++n) {
+    const bool right = n >= static_cast<Eigen::Index>(cage.node_count()) || cage.rest_positions(0, n) > 0.5;
+    if (right) x(1, n) += 5.0;
+  }
+  std::vector<std::uint8_t> faces(4 * cage.tet_count(), 0);
+  for (TetIndex t = 0; t < cage.tet_count(); ++t) {
+    for (int k = 0; k < 4; ++k) {
+      const FaceIndex f = bundle.faces.tet_faces(k, t);
+      bool on_cut = !bundle.faces.is_boundary(f);
+      for (int j = 0; j < 3; ++j) on_cut = on_cut && cage.rest_positions(0, bundle.faces.nodes(j, f)) == 0.5;
+      faces[4 * t + k] = on_cut ? 2 : 0;
+    }
+  }
+  const std::vector<float> positions(x.data(), x.data() + x.size());
+  std::vector<float> identity(9 * cage.tet_count(), 0.0f);
+  for (std::size_t t = 0; t < cage.tet_count(); ++t) identity[9 * t] = identity[9 * t + 4] = identity[9 * t + 8] = 1.0f;
+  const std::vector<std::uint32_t> tet_nodes(tets.data(), tets.data() + tets.size());
+
+  const auto context = render::create_headless_context(render::Backend::OSMesa);
+  render::Renderer renderer(kSize, kSize);
+  const auto world = s.world();
+  renderer.add_body(player::embedded_mesh(bundle, world->bodies()[0].integrator()));
+  renderer.set_pose(0, {positions, identity, tet_nodes, faces, 1});
+  render::Camera camera;
+  camera.eye = Vec3f(3.0f, 0.5f, 0.5f);
+  camera.target = Vec3f(0.5f, 0.5f, 0.5f);
+  renderer.set_camera(camera);
+  formats::Image walls{kSize, kSize, {}}, open{kSize, kSize, {}};
+  renderer.render(walls.rgba);
+  renderer.set_walls_visible(false);
+  renderer.render(open.rgba);
+  if (const char* keep = std::getenv("FISSURE_TEST_IMAGE_DIR"); keep != nullptr) {
+    formats::write_png(std::filesystem::path(keep) / "walls-on.png", walls);
+    formats::write_png(std::filesystem::path(keep) / "walls-off.png", open);
+  }
+
+  // Wall pixels: where the walls changed the image. The open half shows its inside
+  // there, so the cross-section is the foreground of the image without walls.
+  const auto at = [&](const formats::Image& image, int px, int py) { return &image.rgba[4 * (py * kSize + px)]; };
+  const auto foreground = [&](int px, int py) { return !std::equal(at(open, px, py), at(open, px, py) + 3, at(open, 0, 0)); };
+  std::size_t wall = 0, section = 0, stray = 0;
+  for (int py = 0; py < kSize; ++py) {
+    for (int px = 0; px < kSize; ++px) {
+      const bool is_wall = !std::equal(at(walls, px, py), at(walls, px, py) + 3, at(open, px, py));
+      section += foreground(px, py) ? 1 : 0;
+      wall += is_wall ? 1 : 0;
+      bool near_section = false;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int qx = std::clamp(px + dx, 0, kSize - 1), qy = std::clamp(py + dy, 0, kSize - 1);
+          near_section = near_section || foreground(qx, qy);
+        }
+      }
+      stray += is_wall && !near_section ? 1 : 0;
+    }
+  }
+  std::printf("walls: %zu wall pixels over a cross-section of %zu, %zu outside it\n", wall, section, stray);
+  EXPECT_GT(section, static_cast<std::size_t>(kSize * kSize / 10));
+  EXPECT_EQ(stray, 0u);                            // never over a face outside the solid
+  EXPECT_GE(wall, section - section / 50);          // and over (nearly) all of the section
 }
 
 TEST(Render, OSMesaAndEglDrawTheSameImage) {
