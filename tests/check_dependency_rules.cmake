@@ -1,6 +1,7 @@
-# Fails if a file under formats/ or player/ includes CGAL or assimp, or player/sim
-# includes GL headers (DESIGN.md: the player never links CGAL or assimp; sim never
-# touches GL).
+# Fails if a file under formats/ or player/ includes CGAL or assimp, player/sim
+# includes GL headers, or player/sim and player/render include each other (DESIGN.md:
+# the player never links CGAL or assimp; sim never touches GL; the app hands render
+# spans of the physics' state).
 set(violations "")
 foreach(dir formats player)
   file(GLOB_RECURSE files "${SOURCE_DIR}/${dir}/*.h" "${SOURCE_DIR}/${dir}/*.cpp")
@@ -17,6 +18,17 @@ foreach(f ${sim_files})
   if(hits)
     list(APPEND violations "${f}: ${hits}")
   endif()
+endforeach()
+foreach(pair "sim;render" "render;sim")
+  list(GET pair 0 from)
+  list(GET pair 1 to)
+  file(GLOB_RECURSE from_files "${SOURCE_DIR}/player/${from}/*.h" "${SOURCE_DIR}/player/${from}/*.cpp")
+  foreach(f ${from_files})
+    file(STRINGS "${f}" hits REGEX "#include[ \t]*\"player/${to}/")
+    if(hits)
+      list(APPEND violations "${f}: ${hits}")
+    endif()
+  endforeach()
 endforeach()
 if(violations)
   message(FATAL_ERROR "dependency rule violated:\n${violations}")

@@ -169,15 +169,15 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   render::PlainMesh projectile = sphere;
   projectile.color = Vec3f(0.75f, 0.30f, 0.22f);
   for (std::size_t j = 0; j < world.projectiles().size(); ++j) m_projectiles.push_back(renderer.add_plain(projectile));
-  // Frame the bodies with a margin of a third of their size (update() follows them):
+  // Frame the bodies with a margin of a tenth of their size (update() follows them):
   // from the front, a little above, with the world's up (the ground's normal, else
   // against gravity) at the top, and the light above.
-  const Vec3 margin = 0.35 * (bounds.max() - bounds.min());
+  const Vec3 margin = 0.1 * (bounds.max() - bounds.min());
   const Eigen::AlignedBox3f view_box((bounds.min() - margin).cast<float>(), (bounds.max() + margin).cast<float>());
   const float aspect = static_cast<float>(renderer.width()) / static_cast<float>(renderer.height());
   const Vec3f up = world_up(world).cast<float>();
   const Eigen::Quaternionf z_to_up = Eigen::Quaternionf::FromTwoVectors(Vec3f::UnitZ(), up);
-  m_camera = render::frame_box(view_box, z_to_up * Vec3f(-0.55f, 0.75f, -0.38f), up, 35.0f, aspect);
+  m_camera = render::frame_box(view_box, z_to_up * Vec3f(-0.55f, 0.75f, -0.38f), up, 30.0f, aspect);
   m_start_centre = bounds.center();
   render::Light light;
   light.towards = z_to_up * light.towards;
