@@ -9,14 +9,25 @@ flat in vec3 v_normal;
 in vec3 v_position;
 
 uniform sampler2DArray tiles;
+uniform ivec2 tile_layout;  // texels per tile side, tiles per layer side (the renderer's TileAtlas)
 uniform vec3 base_color;
 
 out vec4 fragment_color;
 
 vec3 shade(vec3 normal, vec3 position, vec3 color);  // lighting.frag.glsl
 
+/// The tile's signed distance at (u, v), filtered linearly between texel centres and
+/// clamped to the tile's own texels (the bake extends each field past its face's edges).
+float signed_distance(int tile, vec2 uv) {
+  int res = tile_layout.x, cells = tile_layout.y;
+  int cell = tile % (cells * cells), layer = tile / (cells * cells);
+  vec2 texel = clamp(uv * float(res), vec2(0.5), vec2(float(res) - 0.5));
+  vec2 origin = vec2(float(cell % cells), float(cell / cells)) * float(res);
+  return texture(tiles, vec3((origin + texel) / float(res * cells), float(layer))).r;
+}
+
 void main() {
   // 128 of 255 and above is inside (formats/bundle.h): the boundary sits at 127.5 / 255.
-  if (v_tile >= 0 && texture(tiles, vec3(v_uv, float(v_tile))).r < 127.5 / 255.0) discard;
+  if (v_tile >= 0 && signed_distance(v_tile, v_uv) < 127.5 / 255.0) discard;
   fragment_color = vec4(shade(v_normal, v_position, base_color), 1.0);
 }

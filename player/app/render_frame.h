@@ -16,7 +16,7 @@ namespace fissure::player {
 struct RenderFrame {
   std::vector<float> positions;           ///< 3 per node [m]
   std::vector<float> previous_positions;  ///< 3 per node, at the start of the last step
-  std::vector<float> deformation;         ///< 9 per tet: F, column-major
+  std::vector<float> deformation;         ///< 9 per tet: F, column-major (empty when the frame had none)
   std::vector<std::uint32_t> tets;        ///< 4 per tet (node indices)
   std::vector<std::uint8_t> faces;        ///< 4 per tet: sim::FaceState of face k (opposite corner k)
   std::vector<std::uint32_t> fragment;    ///< per tet

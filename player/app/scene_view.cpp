@@ -147,6 +147,13 @@ render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::Imp
       mesh.rest_normal.insert(mesh.rest_normal.end(), {float(n.x()), float(n.y()), float(n.z())});
     }
   }
+  mesh.rest_inverse.reserve(9 * static_cast<std::size_t>(tets.cols()));
+  for (Eigen::Index t = 0; t < tets.cols(); ++t) {
+    Mat3 edges;
+    for (int i = 0; i < 3; ++i) edges.col(i) = rest.col(tets(i + 1, t)) - rest.col(tets(0, t));
+    const Mat3 inverse = edges.inverse();
+    mesh.rest_inverse.insert(mesh.rest_inverse.end(), inverse.data(), inverse.data() + 9);
+  }
   add_wall_tables(bundle, mesh);
   return mesh;
 }
@@ -202,9 +209,9 @@ void SceneView::update(const sim::World& world) {
   }
   m_renderer.set_camera(camera);
   for (std::size_t b = 0; b < m_bodies.size(); ++b) {
-    update_render_frame(world.frame(b), m_frames[b]);
+    update_render_frame(world.frame(b, false), m_frames[b]);  // the renderer makes F itself
     const RenderFrame& f = m_frames[b];
-    m_renderer.set_pose(m_bodies[b], {f.positions, f.deformation, f.tets, f.faces, f.topology_version});
+    m_renderer.set_pose(m_bodies[b], {f.positions, f.tets, f.faces, f.topology_version});
   }
   for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
     const sim::Projectile& p = world.projectiles()[j];

@@ -3,6 +3,9 @@
 #include <glad/gl.h>
 
 #include <algorithm>
+#include <array>
+#include <cstring>
+#include <unordered_map>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -23,15 +26,38 @@ struct EmbeddedCorner {
 };
 static_assert(sizeof(EmbeddedCorner) == 32);
 
+/// A corner's bits, to find identical corners.
+using CornerKey = std::array<std::uint32_t, sizeof(EmbeddedCorner) / 4>;
+CornerKey key_of(const EmbeddedCorner& c) {
+  CornerKey key;
+  std::memcpy(key.data(), &c, sizeof c);
+  return key;
+}
+struct CornerKeyHash {
+  std::size_t operator()(const CornerKey& key) const {
+    std::size_t h = 1469598103934665603ull;
+    for (const std::uint32_t word : key) h = (h ^ word) * 1099511628211ull;
+    return h;
+  }
+};
+
 /// BodyPose::faces' value of a face fracture opened (sim::FaceState::Fractured).
 constexpr std::uint8_t kFaceFractured = 2;
 
+/// How the signed-distance tiles are packed: a texture array whose layers each hold a
+/// square grid of tiles (a cage of 10k tets has ~6,000 tiles, more than the 2,048
+/// layers a GL implementation must offer, and far fewer than a layer of 4096² holds).
+struct TileAtlas {
+  int resolution = 0, cells = 1, layers = 0;  ///< tile side [texels], tiles per layer side, layers
+};
+
 struct EmbeddedBody {
   GlName vertices{GlName::Kind::Buffer};
+  GlName indices{GlName::Kind::Buffer};
   GlName vertex_array{GlName::Kind::VertexArray};
   GLsizei corners = 0;
   Vec3f color, interior_color;
-  StorageBuffer nodes, tets, deformation;
+  StorageBuffer nodes, tets, rest_inverse;
   std::uint64_t topology_version = ~std::uint64_t{0};
   bool posed = false, visible = true;
   // Walls: the static per-slot tables and tiles, and the slots fracture opened.
@@ -39,21 +65,48 @@ struct EmbeddedBody {
   std::vector<std::int32_t> face_tile_host;
   GLsizei wall_count = 0;
   GLuint tiles = 0;  ///< GL_TEXTURE_2D_ARRAY, 0 without tiles
+  TileAtlas atlas;
   ~EmbeddedBody() {
     if (tiles != 0) glDeleteTextures(1, &tiles);
   }
 };
 
-/// The signed-distance tiles as one texture array, filtered linearly.
-GLuint upload_tiles(const EmbeddedMesh& mesh) {
+TileAtlas plan_atlas(int resolution, std::size_t tiles) {
+  GLint max_size = 0, max_layers = 0;
+  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+  glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
+  TileAtlas atlas{resolution, 1, 0};
+  const int cap = std::max(1, std::min(max_size, 4096) / resolution);
+  atlas.cells = std::clamp(static_cast<int>(std::ceil(std::sqrt(static_cast<double>(tiles)))), 1, cap);
+  const std::size_t per_layer = static_cast<std::size_t>(atlas.cells) * atlas.cells;
+  atlas.layers = static_cast<int>((tiles + per_layer - 1) / per_layer);
+  if (atlas.layers > max_layers) {
+    throw Error(std::to_string(tiles) + " wall tiles of " + std::to_string(resolution) + "² texels do not fit the GPU's textures",
+                "rebake with a smaller --wall-res");
+  }
+  return atlas;
+}
+
+/// The signed-distance tiles in a texture array (see TileAtlas), filtered linearly; the
+/// wall shader clamps its samples inside each tile, so neighbours never bleed in.
+GLuint upload_tiles(const EmbeddedMesh& mesh, TileAtlas& atlas) {
   const int res = mesh.tile_resolution;
   if (res <= 0 || mesh.tiles.empty()) return 0;
-  const auto count = static_cast<GLsizei>(mesh.tiles.size() / (static_cast<std::size_t>(res) * res));
+  const std::size_t tile_bytes = static_cast<std::size_t>(res) * res;
+  const std::size_t count = mesh.tiles.size() / tile_bytes;
+  atlas = plan_atlas(res, count);
+  const int side = atlas.cells * res;
   GLuint texture = 0;
   glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &texture);
-  glTextureStorage3D(texture, 1, GL_R8, res, res, count);
+  glTextureStorage3D(texture, 1, GL_R8, side, side, atlas.layers);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTextureSubImage3D(texture, 0, 0, 0, 0, res, res, count, GL_RED, GL_UNSIGNED_BYTE, mesh.tiles.data());
+  const std::size_t per_layer = static_cast<std::size_t>(atlas.cells) * atlas.cells;
+  for (std::size_t tile = 0; tile < count; ++tile) {
+    const auto cell = static_cast<int>(tile % per_layer);
+    glTextureSubImage3D(texture, 0, (cell % atlas.cells) * res, (cell / atlas.cells) * res,
+                        static_cast<int>(tile / per_layer), res, res, 1, GL_RED, GL_UNSIGNED_BYTE,
+                        mesh.tiles.data() + tile * tile_bytes);
+  }
   glTextureParameteri(texture, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   glTextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   glTextureParameteri(texture, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -175,9 +228,9 @@ struct Renderer::Impl {
       glUniform3fv(embedded.uniform("base_color"), 1, body->color.data());
       body->nodes.bind(0);
       body->tets.bind(1);
-      body->deformation.bind(2);
+      body->rest_inverse.bind(2);
       glBindVertexArray(body->vertex_array.get());
-      glDrawArrays(GL_TRIANGLES, 0, body->corners);
+      glDrawElements(GL_TRIANGLES, body->corners, GL_UNSIGNED_INT, nullptr);
     }
   }
 
@@ -189,6 +242,7 @@ struct Renderer::Impl {
     for (const auto& body : bodies) {
       if (!body->visible || !body->posed || body->wall_count == 0) continue;
       glUniform3fv(wall.uniform("base_color"), 1, body->interior_color.data());
+      glUniform2i(wall.uniform("tile_layout"), body->atlas.resolution, body->atlas.cells);
       glBindTextureUnit(0, body->tiles);
       body->nodes.bind(0);
       body->tets.bind(1);
@@ -232,11 +286,20 @@ std::size_t Renderer::add_body(const EmbeddedMesh& mesh) {
                     std::to_string(mesh.rest_normal.size()) + " normal values",
                 "give 3 corners per instance, 4 barycentric and 3 normal values per corner");
   }
-  std::vector<EmbeddedCorner> data(corners);
+  // A render vertex is a corner of every instance of its triangles in the same tet:
+  // identical corners are stored once and indexed, so each (vertex, tet) is shaded once.
+  std::vector<EmbeddedCorner> data;
+  std::vector<std::uint32_t> indices(corners);
+  std::unordered_map<CornerKey, std::uint32_t, CornerKeyHash> unique;
+  unique.reserve(corners);
   for (std::size_t k = 0; k < corners; ++k) {
-    std::copy_n(&mesh.barycentric[4 * k], 4, data[k].barycentric);
-    data[k].tet = mesh.tet[k];
-    std::copy_n(&mesh.rest_normal[3 * k], 3, data[k].rest_normal);
+    EmbeddedCorner c{};
+    std::copy_n(&mesh.barycentric[4 * k], 4, c.barycentric);
+    c.tet = mesh.tet[k];
+    std::copy_n(&mesh.rest_normal[3 * k], 3, c.rest_normal);
+    const auto [found, added] = unique.try_emplace(key_of(c), static_cast<std::uint32_t>(data.size()));
+    if (added) data.push_back(c);
+    indices[k] = found->second;
   }
   auto body = std::make_unique<EmbeddedBody>();
   body->corners = static_cast<GLsizei>(corners);
@@ -244,21 +307,25 @@ std::size_t Renderer::add_body(const EmbeddedMesh& mesh) {
   const GLuint vao = body->vertex_array.get();
   glNamedBufferStorage(body->vertices.get(), static_cast<GLsizeiptr>(std::max<std::size_t>(1, data.size()) * sizeof(EmbeddedCorner)),
                        data.empty() ? nullptr : data.data(), 0);
+  glNamedBufferStorage(body->indices.get(), static_cast<GLsizeiptr>(std::max<std::size_t>(1, corners) * sizeof(std::uint32_t)),
+                       indices.empty() ? nullptr : indices.data(), 0);
   glVertexArrayVertexBuffer(vao, 0, body->vertices.get(), 0, sizeof(EmbeddedCorner));
+  glVertexArrayElementBuffer(vao, body->indices.get());
   set_vertex_attribute(vao, 0, 4, GL_FLOAT, offsetof(EmbeddedCorner, barycentric), false);
   set_vertex_attribute(vao, 1, 1, GL_UNSIGNED_INT, offsetof(EmbeddedCorner, tet), true);
   set_vertex_attribute(vao, 2, 3, GL_FLOAT, offsetof(EmbeddedCorner, rest_normal), false);
-  m_impl->pending_upload += data.size() * sizeof(EmbeddedCorner);
+  m_impl->pending_upload += data.size() * sizeof(EmbeddedCorner) + indices.size() * sizeof(std::uint32_t);
   if (mesh.face_uv.size() != 6 * mesh.face_tile.size()) {
     throw Error("embedded mesh: " + std::to_string(mesh.face_tile.size()) + " face slots with " +
                     std::to_string(mesh.face_uv.size()) + " uv values",
                 "give 6 uv values per (tet, face) slot");
   }
   body->interior_color = mesh.interior_color;
+  m_impl->pending_upload += body->rest_inverse.upload(mesh.rest_inverse.data(), mesh.rest_inverse.size() * sizeof(float));
   body->face_tile_host = mesh.face_tile;
   m_impl->pending_upload += body->face_tile.upload(mesh.face_tile.data(), mesh.face_tile.size() * sizeof(std::int32_t));
   m_impl->pending_upload += body->face_uv.upload(mesh.face_uv.data(), mesh.face_uv.size() * sizeof(float));
-  body->tiles = upload_tiles(mesh);
+  body->tiles = upload_tiles(mesh, body->atlas);
   m_impl->pending_upload += mesh.tiles.size();
   m_impl->bodies.push_back(std::move(body));
   return m_impl->bodies.size() - 1;
@@ -268,7 +335,6 @@ void Renderer::set_pose(std::size_t index, const BodyPose& pose) {
   EmbeddedBody& body = *m_impl->bodies.at(index);
   std::size_t& bytes = m_impl->pending_upload;
   bytes += body.nodes.upload(pose.positions.data(), pose.positions.size_bytes());
-  bytes += body.deformation.upload(pose.deformation.data(), pose.deformation.size_bytes());
   if (pose.topology_version != body.topology_version) {
     bytes += body.tets.upload(pose.tets.data(), pose.tets.size_bytes());
     // The walls: the opened slots that show solid (fracture changes only connectivity,

@@ -10,8 +10,9 @@
 /// when fracture changed it); the vertex shader places each vertex from its tet's
 /// nodes, the fragment shader discards what lies outside the tet (so an instance
 /// duplicated in several tets shows each tet's part once), and normals follow the
-/// deformation through the cofactor of F (F⁻ᵀ det F): exact for any affine map,
-/// shear and stretch included, where the rotation alone is not.
+/// deformation through the cofactor of F (F⁻ᵀ det F), F computed in the shader from the
+/// tet's nodes and its static rest inverse: exact for any affine map, shear and stretch
+/// included, where the rotation alone is not.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -52,6 +53,9 @@ struct EmbeddedMesh {
   std::vector<float> barycentric;      ///< 4 per corner: the corner in its tet's barycentric coordinates
   std::vector<std::uint32_t> tet;      ///< 1 per corner
   std::vector<float> rest_normal;      ///< 3 per corner: the vertex normal at rest, in world axes
+  /// 9 per tet: the inverse of its rest edge matrix [x1−x0, x2−x0, x3−x0], column-major,
+  /// for F = Dx Du⁻¹ (a split changes which nodes a tet has, never its rest shape).
+  std::vector<float> rest_inverse;
   Vec3f color = Vec3f(0.78f, 0.74f, 0.68f);
   /// Walls: per (tet, local face k) slot 4t + k, the face's tile (≥ 0: its signed-distance
   /// tile decides which part is solid), kWallWhole or kWallNone; and per slot and face
@@ -66,7 +70,6 @@ struct EmbeddedMesh {
 /// One body's cage as it is this frame.
 struct BodyPose {
   std::span<const float> positions;      ///< 3 per node [m]
-  std::span<const float> deformation;    ///< 9 per tet: F, column-major
   std::span<const std::uint32_t> tets;   ///< 4 per tet
   /// Per (tet, local face) slot: 2 where fracture opened the face (sim::FaceState::Fractured).
   std::span<const std::uint8_t> faces;

@@ -308,14 +308,16 @@ void World::set_velocities(Index body, const Matrix3Xd& velocities) {
   m_bodies.at(body).integrator().set_velocities(velocities);
 }
 
-BodyFrame World::frame(Index body) const {
+BodyFrame World::frame(Index body, bool with_deformation) const {
   const Body& b = m_bodies[body];
   const ImplicitIntegrator& integrator = b.integrator();
-  if (m_deformation_step[body] != m_steps + 1) {
+  if (with_deformation && m_deformation_step[body] != m_steps + 1) {
     integrator.elasticity().deformation_gradients(integrator.positions(), m_deformation[body]);
     m_deformation_step[body] = m_steps + 1;
   }
-  return {integrator.positions(), m_previous_positions[body], integrator.elasticity().tets(), m_deformation[body],
+  const std::span<const Mat3> deformation =
+      with_deformation ? std::span<const Mat3>(m_deformation[body]) : std::span<const Mat3>();
+  return {integrator.positions(), m_previous_positions[body], integrator.elasticity().tets(), deformation,
           b.topology.face_states(), b.topology.tet_fragment(), b.topology.version()};
 }
 

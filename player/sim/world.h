@@ -139,8 +139,9 @@ class World {
   [[nodiscard]] const Environment& environment() const { return m_environment; }
   [[nodiscard]] const WorldSettings& settings() const { return m_settings; }
   /// Body `body` as it is now. Its deformation gradients are computed on the first call
-  /// after a step (one pass over the tets), so a world nobody draws never pays for them.
-  [[nodiscard]] BodyFrame frame(Index body) const;
+  /// after a step that asks for them (one pass over the tets), so a world nobody reads
+  /// them from never pays; without them `deformation` is empty.
+  [[nodiscard]] BodyFrame frame(Index body, bool with_deformation = true) const;
   /// Words for a status this world returned (ok statuses too).
   [[nodiscard]] StepFailure explain(const StepStatus& status) const;
   /// Replaces a body's node velocities (3×#N, finite): an external push, such as a

@@ -16,6 +16,7 @@
 #include "player/render/context.h"
 #include "player/render/shader_program.h"
 #include "tests/support/image_compare.h"
+#include "tests/support/mapped_mesh.h"
 #include "tests/support/procedural.h"
 #include "tests/support/sim_fixtures.h"
 #include "tests/support/temp_dir.h"
@@ -55,40 +56,6 @@ const EmbeddedSphere& sphere() {
   return s;
 }
 
-/// The render mesh placed through its bindings on the CPU (each vertex from its first
-/// instance) with smooth area-weighted normals: what the embedded render must show.
-render::PlainMesh mapped_mesh(const formats::Bundle& bundle, const Matrix3Xd& x, const Matrix4Xu& tets) {
-  const formats::Embedding& e = bundle.embedding;
-  Matrix3Xd p = Matrix3Xd::Zero(3, bundle.render.positions.cols());
-  std::vector<bool> placed(static_cast<std::size_t>(p.cols()), false);
-  for (std::size_t i = 0; i < e.instance_count(); ++i) {
-    for (int j = 0; j < 3; ++j) {
-      const Index v = bundle.render.triangles(j, e.instance_triangle[i]);
-      if (placed[v]) continue;
-      placed[v] = true;
-      const Vec4 b = e.instance_barycentric[i].col(j);
-      for (int k = 0; k < 4; ++k) p.col(v) += b[k] * x.col(tets(k, e.instance_tet[i]));
-    }
-  }
-  Matrix3Xd n = Matrix3Xd::Zero(3, p.cols());
-  for (Eigen::Index t = 0; t < bundle.render.triangles.cols(); ++t) {
-    const auto& tri = bundle.render.triangles.col(t);
-    const Vec3 normal = (p.col(tri[1]) - p.col(tri[0])).cross(p.col(tri[2]) - p.col(tri[0]));
-    for (int j = 0; j < 3; ++j) n.col(tri[j]) += normal;
-  }
-  render::PlainMesh mesh;
-  for (Eigen::Index v = 0; v < p.cols(); ++v) {
-    const Vec3 unit = n.col(v).normalized();
-    for (int k = 0; k < 3; ++k) {
-      mesh.positions.push_back(static_cast<float>(p(k, v)));
-      mesh.normals.push_back(static_cast<float>(unit[k]));
-    }
-  }
-  mesh.triangles.assign(bundle.render.triangles.data(), bundle.render.triangles.data() + bundle.render.triangles.size());
-  mesh.color = render::EmbeddedMesh{}.color;
-  return mesh;
-}
-
 struct RenderPair {
   formats::Image embedded, direct;
 };
@@ -107,7 +74,7 @@ RenderPair render_both(const sim::World& world, render::Backend backend = render
   renderer.render(out.embedded.rgba);
   const sim::ImplicitIntegrator& body = world.bodies()[0].integrator();
   renderer.set_body_visible(0, false);
-  renderer.add_plain(mapped_mesh(sphere().bundle, body.positions(), body.elasticity().tets()));
+  renderer.add_plain(testing::mapped_mesh(sphere().bundle, body.positions(), body.elasticity().tets()));
   renderer.render(out.direct.rgba);
   return out;
 }
@@ -197,15 +164,13 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
     }
   }
   const std::vector<float> positions(x.data(), x.data() + x.size());
-  std::vector<float> identity(9 * cage.tet_count(), 0.0f);
-  for (std::size_t t = 0; t < cage.tet_count(); ++t) identity[9 * t] = identity[9 * t + 4] = identity[9 * t + 8] = 1.0f;
   const std::vector<std::uint32_t> tet_nodes(tets.data(), tets.data() + tets.size());
 
   const auto context = render::create_headless_context(render::Backend::OSMesa);
   render::Renderer renderer(kSize, kSize);
   const auto world = s.world();
   renderer.add_body(player::embedded_mesh(bundle, world->bodies()[0].integrator()));
-  renderer.set_pose(0, {positions, identity, tet_nodes, faces, 1});
+  renderer.set_pose(0, {positions, tet_nodes, faces, 1});
   render::Camera camera;
   camera.eye = Vec3f(3.0f, 0.5f, 0.5f);
   camera.target = Vec3f(0.5f, 0.5f, 0.5f);

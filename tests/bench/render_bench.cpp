@@ -1,0 +1,143 @@
+// The cost of drawing an embedded mesh (thesis Figs. 21–22, issue 14): per mesh and cage,
+// the embedded draw against a plain draw of the same mesh mapped on the CPU, the bytes
+// uploaded per frame, and the physics step, which must not grow with the triangles.
+//
+// usage: fissure_render_bench [--size WxH] [--frames N] [--backend osmesa|egl]
+//                             [--subdivisions K] [--shared DIR]
+//   --subdivisions K  also the bunny split 1→4 up to K times (default 2: 5k, 20k, 80k triangles)
+//   --shared DIR      the shared data folder, for the 10,024-tet cage (optional)
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "bake/bake.h"
+#include "bake/mesh_import.h"
+#include "common/error.h"
+#include "formats/cage_io.h"
+#include "player/app/frame_output.h"
+#include "player/app/scene_view.h"
+#include "player/render/context.h"
+#include "tests/support/mapped_mesh.h"
+#include "tests/support/procedural.h"
+#include "tests/support/sim_fixtures.h"
+
+namespace {
+
+using namespace fissure;
+using Clock = std::chrono::steady_clock;
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+struct Options {
+  int width = 1280, height = 720, frames = 20, subdivisions = 2;
+  render::Backend backend = render::Backend::OSMesa;
+  std::filesystem::path shared;
+};
+
+Options parse(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    const bool has_value = i + 1 < argc;
+    if (arg == "--size" && has_value) {
+      std::tie(o.width, o.height) = player::parse_size(argv[++i]);
+    } else if (arg == "--frames" && has_value) {
+      o.frames = std::max(1, std::stoi(argv[++i]));
+    } else if (arg == "--backend" && has_value) {
+      o.backend = render::parse_backend(argv[++i]);
+    } else if (arg == "--subdivisions" && has_value) {
+      o.subdivisions = std::clamp(std::stoi(argv[++i]), 0, 4);
+    } else if (arg == "--shared" && has_value) {
+      o.shared = argv[++i];
+    } else {
+      throw Error("unknown argument " + arg,
+                  "usage: fissure_render_bench [--size WxH] [--frames N] [--backend osmesa|egl] [--subdivisions K] [--shared DIR]");
+    }
+  }
+  return o;
+}
+
+struct Row {
+  std::size_t triangles, tets, instances;
+  double bake_s, step_ms, embedded_ms, plain_ms;
+  std::size_t upload_bytes;
+};
+
+Row measure(const SurfaceMesh& mesh, const TetMesh& cage, const Options& o, render::Renderer& renderer) {
+  Row row{mesh.triangle_count(), cage.tet_count(), 0, 0, 0, 0, 0, 0};
+  bake::BakeOptions bake_options;
+  bake_options.collision = false;
+  auto start = Clock::now();
+  const formats::Bundle bundle = bake::embed(mesh, cage, bake_options, "mesh", "cage");
+  row.bake_s = std::chrono::duration<double>(Clock::now() - start).count();
+  row.instances = bundle.embedding.instance_count();
+  sim::BodyDescription body = testing::describe("body", cage, sim::Material{.density = 1000, .youngs_modulus = 1e5});
+  sim::WorldSettings settings;
+  settings.collisions = false;
+  settings.step.solver = sim::LinearSolver::ConjugateGradient;
+  settings.step.tolerance = 1e-4;
+  sim::World world({body}, {}, {}, settings);
+  std::vector<double> steps, embedded, plain;
+  for (int i = 0; i < 20; ++i) steps.push_back(1e3 * world.step().total);
+  row.step_ms = median(steps);
+
+  const std::vector<player::BodyAssets> assets{{"mesh.h5", bundle, 1.0}};
+  player::SceneView view(world, assets, renderer);
+  std::vector<std::uint8_t> pixels;
+  for (int f = 0; f <= o.frames; ++f) {
+    view.update(world);
+    renderer.render(pixels);
+    if (f > 0) embedded.push_back(renderer.last_stats().draw_ms);  // the first frame uploads the static buffers
+  }
+  row.upload_bytes = renderer.last_stats().upload_bytes;
+  row.embedded_ms = median(embedded);
+  renderer.set_body_visible(0, false);
+  const sim::ImplicitIntegrator& integrator = world.bodies()[0].integrator();
+  const std::size_t plain_mesh = renderer.add_plain(testing::mapped_mesh(bundle, integrator.positions(), integrator.elasticity().tets()));
+  for (int f = 0; f <= o.frames; ++f) {
+    renderer.render(pixels);
+    if (f > 0) plain.push_back(renderer.last_stats().draw_ms);
+  }
+  renderer.set_visible(plain_mesh, false);
+  row.plain_ms = median(plain);
+  return row;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const Options o = parse(argc, argv);
+    const std::filesystem::path data = FISSURE_BENCH_DATA_DIR;
+    std::vector<std::pair<std::string, TetMesh>> cages{
+        {"987", formats::read_cage(data / "cages" / "bunny-5k-cage-987.node").mesh}};
+    if (!o.shared.empty()) {
+      cages.emplace_back("10024", formats::read_cage(o.shared / "cages" / "bunny-5k-cage-10024.node").mesh);
+    }
+    std::vector<SurfaceMesh> meshes{bake::import_render_mesh(data / "meshes" / "bunny-5k.obj").mesh};
+    for (int k = 0; k < o.subdivisions; ++k) meshes.push_back(testing::subdivide(meshes.back()));
+    const auto context = render::create_headless_context(o.backend);
+    std::printf("%s, %dx%d, median of %d frames; physics: CG (lagged Cholesky, 1e-4), median of 20 steps\n\n",
+                context->description().c_str(), o.width, o.height, o.frames);
+    std::printf("| triangles | tets | instances | bake s | physics ms/step | embedded draw ms | plain draw ms | embedded ÷ plain | upload bytes/frame |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|\n");
+    for (const auto& [name, cage] : cages) {
+      for (const SurfaceMesh& mesh : meshes) {
+        render::Renderer renderer(o.width, o.height);  // one per case: only its own bodies
+        const Row r = measure(mesh, cage, o, renderer);
+        std::printf("| %zu | %zu | %zu | %.2f | %.2f | %.1f | %.1f | %.2f× | %zu |\n", r.triangles, r.tets, r.instances,
+                    r.bake_s, r.step_ms, r.embedded_ms, r.plain_ms, r.embedded_ms / r.plain_ms, r.upload_bytes);
+        std::fflush(stdout);
+      }
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}
