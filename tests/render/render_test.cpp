@@ -210,6 +210,31 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
   EXPECT_GE(wall, section - section / 50);          // and over (nearly) all of the section
 }
 
+// Golden images: the renderer against itself over time, so a change that alters what a
+// scene looks like shows up. Compared with a tolerance (a Mesa update may move a few
+// pixels). To accept a deliberate change, rerun with FISSURE_UPDATE_GOLDEN=1 and commit
+// tests/render/golden/*.png after looking at them.
+void expect_golden(const formats::Image& image, const std::string& name) {
+  const std::filesystem::path golden = std::filesystem::path(FISSURE_GOLDEN_DIR) / (name + ".png");
+  if (std::getenv("FISSURE_UPDATE_GOLDEN") != nullptr) {
+    formats::write_png(golden, image);
+    return;
+  }
+  ASSERT_TRUE(std::filesystem::exists(golden)) << golden << " is missing: run with FISSURE_UPDATE_GOLDEN=1";
+  static const testing::TempDir dir;
+  const std::filesystem::path diff = dir.path() / (name + "-golden-diff.png");
+  const testing::ImageDifference d =
+      testing::compare_images(image, formats::read_png(golden), {.max_abs = 4, .shift = 1, .max_failing_fraction = 1e-3}, diff);
+  EXPECT_LE(d.fraction(), 1e-3) << name << ": " << d.failing << " pixels differ from " << golden << "; diff: " << diff;
+}
+
+TEST(Render, TheSphereAtRestAndBentMatchesItsGoldenImages) {
+  expect_golden(render_both(*sphere().world()).embedded, "sphere-rest");
+  Matrix3Xd bent = sphere().cage.rest_positions;
+  for (Eigen::Index n = 0; n < bent.cols(); ++n) bent(2, n) += 0.3 * std::pow(bent(0, n) - 0.5, 2);
+  expect_golden(render_both(*sphere().world(bent)).embedded, "sphere-bent");
+}
+
 TEST(Render, OSMesaAndEglDrawTheSameImage) {
   const auto world = sphere().world();
   const RenderPair osmesa = render_both(*world, render::Backend::OSMesa);
