@@ -446,8 +446,20 @@ void read_pin(const Table& t, SceneObject& object) {
   }
 }
 
+/// An optional colour: three numbers in [0, 1].
+void read_color(const Table& t, std::string_view key, std::optional<Vec3>& out) {
+  Vec3 color;
+  if (!t.read_vec3(key, color)) return;
+  if ((color.array() < 0.0).any() || (color.array() > 1.0).any()) {
+    t.fail(t.line_of(*t.find(key)), t.key_path(key) + " = " + format_vec3(color) + " is not a colour",
+           "give linear red, green and blue from 0 to 1, e.g. [0.8, 0.45, 0.36]");
+  }
+  out = color;
+}
+
 void read_object(const Table& t, const std::filesystem::path& folder, SceneObject& object) {
-  t.allow_only({"name", "bundle", "translation", "rotation", "scale", "velocity", "angular_velocity", "material", "pin"});
+  t.allow_only({"name", "bundle", "translation", "rotation", "scale", "velocity", "angular_velocity", "material", "pin",
+                "color", "interior_color"});
   object.line = t.line();
   const auto bundle = t.read_string("bundle");
   if (!bundle) t.fail_missing("bundle", "bundle = \"path/to/asset.h5\"");
@@ -476,6 +488,27 @@ void read_object(const Table& t, const std::filesystem::path& folder, SceneObjec
   t.read_vec3("angular_velocity", object.angular_velocity);
   if (const auto material = t.sub_table("material", "[object.material]")) read_material(*material, object.material);
   for (const Table& pin : t.table_array("pin", "[object.pin]")) read_pin(pin, object);
+  read_color(t, "color", object.color);
+  read_color(t, "interior_color", object.interior_color);
+}
+
+void read_camera(const Table& t, SceneCamera& c) {
+  t.allow_only({"position", "target", "fov", "up"});
+  c.line = t.line();
+  c.position = t.require_vec3("position", "position = [x, y, z]");
+  c.target = t.require_vec3("target", "target = [x, y, z]");
+  if ((c.target - c.position).norm() <= 0) {
+    t.fail(t.line_of(*t.find("target")), t.key_path("target") + " is the camera's position", "look at another point");
+  }
+  t.read_number("fov", c.fov_degrees, [](double v) { return v > 1 && v < 170; }, "fov between 1 and 170 [degrees, vertical]");
+  Vec3 up;
+  if (t.read_vec3("up", up)) {
+    if (up.norm() <= 0 || up.normalized().cross((c.target - c.position).normalized()).norm() < 1e-6) {
+      t.fail(t.line_of(*t.find("up")), t.key_path("up") + " = " + format_vec3(up) + " is zero or along the view",
+             "give the direction that should point up in the image, e.g. [0, 0, 1]");
+    }
+    c.up = up.normalized();
+  }
 }
 
 void read_projectile(const Table& t, SceneProjectile& p) {
@@ -505,7 +538,7 @@ Scene parse_scene(std::string_view text, const std::filesystem::path& file_for_m
 
   const Source source(file);
   const Table top(source, root, "", "", 1);
-  top.allow_only({"solver", "features", "environment", "object", "projectile"});
+  top.allow_only({"solver", "features", "environment", "object", "projectile", "camera"});
 
   Scene scene;
   scene.file = file_for_messages;
@@ -518,6 +551,7 @@ Scene parse_scene(std::string_view text, const std::filesystem::path& file_for_m
     source.fail(1, "object: the scene has no [[object]]", "add at least one [[object]] section with bundle = \"path/to/asset.h5\"");
   }
   for (const Table& projectile : top.table_array("projectile", "[projectile]")) read_projectile(projectile, scene.projectiles.emplace_back());
+  if (const auto camera = top.sub_table("camera", "[camera]")) read_camera(*camera, scene.camera.emplace());
   return scene;
 }
 

@@ -13,6 +13,7 @@
 
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -56,6 +57,8 @@ struct SceneObject {
   SceneMaterial material;
   std::vector<ScenePinBox> pin_boxes;  ///< in world coordinates after the transform
   std::vector<Index> pin_nodes;        ///< cage node indices, concatenated over all [[object.pin]]
+  std::optional<Vec3> color;           ///< surface colour, linear RGB in [0, 1]; none: the player's default
+  std::optional<Vec3> interior_color;  ///< colour of the walls fracture opens; none: the player's default
   int line = 0;                        ///< line of the object's [[object]] header, for app errors
 };
 
@@ -125,6 +128,16 @@ struct SceneFeatures {
   bool mass_weighting = true;
 };
 
+/// Where the images are seen from; without a [camera] the player frames the bodies and
+/// follows them.
+struct SceneCamera {
+  Vec3 position = Vec3::Zero();  ///< [m]
+  Vec3 target = Vec3::Zero();    ///< [m], not at position
+  double fov_degrees = 30;       ///< vertical field of view, in (1, 170)
+  std::optional<Vec3> up;        ///< the image's up (unit); none: the world's up
+  int line = 0;                  ///< line of the [camera] header
+};
+
 struct Scene {
   std::filesystem::path file;  ///< the scene file as given to the reader
   SceneSolverSettings solver;
@@ -135,6 +148,7 @@ struct Scene {
   std::vector<SceneSphere> spheres;
   std::vector<SceneObject> objects;  ///< at least one
   std::vector<SceneProjectile> projectiles;
+  std::optional<SceneCamera> camera;
 };
 
 /// Reads and validates a scene file. Throws fissure::Error.

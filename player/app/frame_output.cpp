@@ -52,7 +52,7 @@ FrameOutput::FrameOutput(const FrameOptions& options, const LoadedScene& scene) 
   log_info("rendering " + std::to_string(options.width) + "×" + std::to_string(options.height) + " at " +
            std::to_string(options.fps) + " frames/s with " + m_description);
   m_renderer = std::make_unique<render::Renderer>(options.width, options.height);
-  m_view = std::make_unique<SceneView>(scene.world, scene.assets, *m_renderer);
+  m_view = std::make_unique<SceneView>(scene.world, scene.assets, *m_renderer, scene.camera);
 }
 
 FrameOutput::~FrameOutput() = default;

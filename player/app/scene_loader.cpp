@@ -109,7 +109,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
     }
     formats::Bundle bundle = formats::read_bundle(object.bundle);
     bodies.push_back(describe(scene, i, bundle));
-    assets.push_back({object.bundle.filename().string(), std::move(bundle), object.scale});
+    assets.push_back({object.bundle.filename().string(), std::move(bundle), object.scale, object.color, object.interior_color});
   }
   sim::Environment environment;
   if (scene.ground.enabled) {
@@ -145,7 +145,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
   settings.collision_points = scene.features.collision_mode == formats::SceneCollisionMode::Vertices
                                   ? sim::CollisionPoints::RenderVertices
                                   : sim::CollisionPoints::Spheres;
-  return {sim::World(std::move(bodies), std::move(environment), std::move(projectiles), settings), std::move(assets)};
+  return {sim::World(std::move(bodies), std::move(environment), std::move(projectiles), settings), std::move(assets), scene.camera};
 }
 
 }  // namespace fissure::player

@@ -20,11 +20,13 @@ struct BodyAssets {
   std::string bundle_name;  ///< the bundle's file name
   formats::Bundle bundle;
   double scale = 1;         ///< the scene's uniform scale of the object (walls' depths, sphere radii)
+  std::optional<Vec3> color, interior_color;  ///< the scene's colours; none: the renderer's defaults
 };
 
 struct LoadedScene {
   sim::World world;
   std::vector<BodyAssets> assets;  ///< per body, in the world's body order
+  std::optional<formats::SceneCamera> camera;  ///< the scene's [camera]; none: frame the bodies
 };
 
 /// Throws fissure::Error naming the scene file, line and object for anything a bundle

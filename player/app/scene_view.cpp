@@ -158,12 +158,16 @@ render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::Imp
   return mesh;
 }
 
-SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& assets, render::Renderer& renderer)
+SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& assets, render::Renderer& renderer,
+                     const std::optional<formats::SceneCamera>& camera)
     : m_renderer(renderer), m_frames(world.bodies().size()) {
   Eigen::AlignedBox3d bounds;
   for (std::size_t b = 0; b < world.bodies().size(); ++b) {
     const sim::ImplicitIntegrator& body = world.bodies()[b].integrator();
-    m_bodies.push_back(renderer.add_body(embedded_mesh(assets[b].bundle, body)));
+    render::EmbeddedMesh mesh = embedded_mesh(assets[b].bundle, body);
+    if (assets[b].color) mesh.color = assets[b].color->cast<float>();
+    if (assets[b].interior_color) mesh.interior_color = assets[b].interior_color->cast<float>();
+    m_bodies.push_back(renderer.add_body(mesh));
     for (Eigen::Index n = 0; n < body.positions().cols(); ++n) bounds.extend(Vec3(body.positions().col(n)));
   }
   if (bounds.isEmpty()) bounds.extend(Vec3::Zero());
@@ -186,6 +190,17 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   const Eigen::Quaternionf z_to_up = Eigen::Quaternionf::FromTwoVectors(Vec3f::UnitZ(), up);
   m_camera = render::frame_box(view_box, z_to_up * Vec3f(-0.55f, 0.75f, -0.38f), up, 30.0f, aspect);
   m_start_centre = bounds.center();
+  if (camera) {
+    m_follow = false;
+    m_camera.eye = camera->position.cast<float>();
+    m_camera.target = camera->target.cast<float>();
+    m_camera.fov_y_degrees = static_cast<float>(camera->fov_degrees);
+    m_camera.up = camera->up ? Vec3f(camera->up->cast<float>()) : up;
+    const float distance = (m_camera.target - m_camera.eye).norm();
+    const float size = std::max(static_cast<float>(bounds.diagonal().norm()), 1e-3f);
+    m_camera.near_plane = std::max(1e-3f * distance, 0.01f * size);
+    m_camera.far_plane = distance + 100.0f * size;
+  }
   render::Light light;
   light.towards = z_to_up * light.towards;
   renderer.set_light(light);
@@ -202,7 +217,7 @@ void SceneView::update(const sim::World& world) {
     }
   }
   render::Camera camera = m_camera;
-  if (!bounds.isEmpty()) {
+  if (m_follow && !bounds.isEmpty()) {
     const Vec3f shift = (bounds.center() - m_start_centre).cast<float>();
     camera.eye += shift;
     camera.target += shift;

@@ -5,6 +5,7 @@
 /// poses everything from the world's current state.
 
 #include <cstddef>
+#include <optional>
 #include <vector>
 
 #include "player/app/render_frame.h"
@@ -20,8 +21,10 @@ render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::Imp
 
 class SceneView {
  public:
-  /// Adds the world's bodies and obstacles to `renderer` and frames the camera.
-  SceneView(const sim::World& world, const std::vector<BodyAssets>& assets, render::Renderer& renderer);
+  /// Adds the world's bodies and obstacles to `renderer` and frames the camera, or
+  /// places it where `camera` says (then it stays there).
+  SceneView(const sim::World& world, const std::vector<BodyAssets>& assets, render::Renderer& renderer,
+            const std::optional<formats::SceneCamera>& camera = {});
 
   /// Poses every body and projectile as the world is now (the renderer counts the bytes
   /// this uploads: positions, gradients, and tets only when fracture changed them).
@@ -33,6 +36,7 @@ class SceneView {
   std::vector<RenderFrame> m_frames;       ///< per body
   std::vector<std::size_t> m_projectiles;  ///< renderer handle per projectile
   render::Camera m_camera;                 ///< as framed at the start; update() moves it with the bodies
+  bool m_follow = true;                    ///< false: the scene placed the camera
   Vec3 m_start_centre;                     ///< the bodies' centre at the start
 };
 

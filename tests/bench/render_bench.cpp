@@ -86,7 +86,7 @@ Row measure(const SurfaceMesh& mesh, const TetMesh& cage, const Options& o, rend
   for (int i = 0; i < 20; ++i) steps.push_back(1e3 * world.step().total);
   row.step_ms = median(steps);
 
-  const std::vector<player::BodyAssets> assets{{"mesh.h5", bundle, 1.0}};
+  const std::vector<player::BodyAssets> assets{{"mesh.h5", bundle, 1.0, {}, {}}};
   player::SceneView view(world, assets, renderer);
   std::vector<std::uint8_t> pixels;
   for (int f = 0; f <= o.frames; ++f) {

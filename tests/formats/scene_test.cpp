@@ -287,6 +287,29 @@ TEST(SceneReader, DocsExampleParses) {
   EXPECT_DOUBLE_EQ(scene.solver.dt, defaults.dt);
   EXPECT_EQ(scene.solver.max_iterations, defaults.max_iterations);
   EXPECT_TRUE(std::isinf(scene.objects[0].material.toughness));
+  ASSERT_TRUE(scene.camera.has_value());
+  EXPECT_EQ(scene.camera->fov_degrees, 30.0);
+  EXPECT_EQ(scene.camera->up, Vec3::UnitZ());
+  EXPECT_EQ(scene.objects[0].interior_color, Vec3(0.80, 0.45, 0.36));
+}
+
+TEST(SceneReader, CameraAndColoursAreCheckedWithTheirLine) {
+  const Scene plain = parse(with_object(""));
+  EXPECT_FALSE(plain.camera.has_value());
+  EXPECT_FALSE(plain.objects[0].color.has_value());
+  const Scene placed = parse(with_object("color = [1, 0, 0]\n") +
+                             "\n[camera]\nposition = [0, -2, 1]\ntarget = [0, 0, 0]\nfov = 45\n");
+  EXPECT_EQ(placed.objects[0].color, Vec3(1, 0, 0));
+  ASSERT_TRUE(placed.camera.has_value());
+  EXPECT_EQ(placed.camera->position, Vec3(0, -2, 1));
+  EXPECT_EQ(placed.camera->fov_degrees, 45.0);
+  EXPECT_FALSE(placed.camera->up.has_value());
+  expect_parse_error(with_object("interior_color = [1.5, 0, 0]\n"), {"interior_color", "not a colour"});
+  expect_parse_error(with_object("") + "\n[camera]\nposition = [0, 0, 1]\n", {"camera", "target"});
+  expect_parse_error(with_object("") + "\n[camera]\nposition = [0, 0, 1]\ntarget = [0, 0, 1]\n", {"target", "position"});
+  expect_parse_error(with_object("") + "\n[camera]\nposition = [0, 0, 1]\ntarget = [0, 0, 0]\nfov = 180\n", {"fov", "170"});
+  expect_parse_error(with_object("") + "\n[camera]\nposition = [0, 0, 1]\ntarget = [0, 0, 0]\nup = [0, 0, 2]\n",
+                     {"up", "along the view"});
 }
 
 TEST(SceneReader, BundleResolvesRelativeToTheSceneFolder) {

@@ -64,7 +64,7 @@ struct RenderPair {
 RenderPair render_both(const sim::World& world, render::Backend backend = render::Backend::OSMesa) {
   const auto context = render::create_headless_context(backend);
   render::Renderer renderer(kSize, kSize);
-  const std::vector<player::BodyAssets> assets{{"sphere.h5", sphere().bundle, 1.0}};
+  const std::vector<player::BodyAssets> assets{{"sphere.h5", sphere().bundle, 1.0, {}, {}}};
   player::SceneView view(world, assets, renderer);
   // Closer than the view's own framing, which leaves room for motion: the sphere fills
   // most of the frame, so a mismatch has many pixels to show in.
