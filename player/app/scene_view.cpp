@@ -115,6 +115,25 @@ void add_wall_tables(const formats::Bundle& bundle, render::EmbeddedMesh& mesh) 
   }
   mesh.tile_resolution = static_cast<int>(w.resolution);
   mesh.tiles = w.sdf;
+  // The detail repeats every quarter of the cage's mean edge, on every face alike.
+  mesh.detail_resolution = static_cast<int>(w.detail_resolution);
+  mesh.detail_normal = w.detail_normal;
+  double edges = 0.0;
+  for (FaceIndex f = 0; f < bundle.faces.face_count(); ++f) {
+    edges += (bundle.cage.rest_positions.col(bundle.faces.nodes(1, f)) - bundle.cage.rest_positions.col(bundle.faces.nodes(0, f))).norm();
+  }
+  const double period = 0.25 * edges / static_cast<double>(std::max<std::size_t>(bundle.faces.face_count(), 1));
+  mesh.face_detail_repeat.assign(8 * tets, 1.0f);
+  for (TetIndex t = 0; t < tets; ++t) {
+    for (int k = 0; k < 4; ++k) {
+      const FaceIndex f = bundle.faces.tet_faces(k, t);
+      const auto& n = bundle.faces.nodes;
+      const Matrix3Xd& x = bundle.cage.rest_positions;
+      float* repeat = &mesh.face_detail_repeat[2 * (4 * static_cast<std::size_t>(t) + static_cast<std::size_t>(k))];
+      repeat[0] = static_cast<float>((x.col(n(1, f)) - x.col(n(0, f))).norm() / period);
+      repeat[1] = static_cast<float>((x.col(n(2, f)) - x.col(n(0, f))).norm() / period);
+    }
+  }
 }
 
 render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::ImplicitIntegrator& body) {

@@ -51,6 +51,25 @@ struct TileAtlas {
   int resolution = 0, cells = 1, layers = 0;  ///< tile side [texels], tiles per layer side, layers
 };
 
+/// The walls' detail normal map: tileable, so it repeats; mipmapped, so far walls do
+/// not shimmer.
+GLuint upload_detail(const EmbeddedMesh& mesh) {
+  const int res = mesh.detail_resolution;
+  if (res <= 0 || mesh.detail_normal.size() != 3 * static_cast<std::size_t>(res) * res) return 0;
+  GLuint texture = 0;
+  glCreateTextures(GL_TEXTURE_2D, 1, &texture);
+  const int levels = 1 + static_cast<int>(std::floor(std::log2(static_cast<double>(res))));
+  glTextureStorage2D(texture, levels, GL_RGB8, res, res);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTextureSubImage2D(texture, 0, 0, 0, res, res, GL_RGB, GL_UNSIGNED_BYTE, mesh.detail_normal.data());
+  glGenerateTextureMipmap(texture);
+  glTextureParameteri(texture, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+  glTextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(texture, GL_TEXTURE_WRAP_S, GL_REPEAT);
+  glTextureParameteri(texture, GL_TEXTURE_WRAP_T, GL_REPEAT);
+  return texture;
+}
+
 struct EmbeddedBody {
   GlName vertices{GlName::Kind::Buffer};
   GlName indices{GlName::Kind::Buffer};
@@ -61,13 +80,15 @@ struct EmbeddedBody {
   std::uint64_t topology_version = ~std::uint64_t{0};
   bool posed = false, visible = true;
   // Walls: the static per-slot tables and tiles, and the slots fracture opened.
-  StorageBuffer face_tile, face_uv, walls;
+  StorageBuffer face_tile, face_uv, walls, detail_repeat;
+  GLuint detail = 0;  ///< GL_TEXTURE_2D (RGB8, repeating, mipmapped), 0 without a detail material
   std::vector<std::int32_t> face_tile_host;
   GLsizei wall_count = 0;
   GLuint tiles = 0;  ///< GL_TEXTURE_2D_ARRAY, 0 without tiles
   TileAtlas atlas;
   ~EmbeddedBody() {
     if (tiles != 0) glDeleteTextures(1, &tiles);
+    if (detail != 0) glDeleteTextures(1, &detail);
   }
 };
 
@@ -185,7 +206,7 @@ struct Renderer::Impl {
   GlName depth{GlName::Kind::Renderbuffer};
   ShaderProgram embedded, plain, wall;
   GlName empty_vertex_array{GlName::Kind::VertexArray};  ///< walls read everything from storage buffers
-  bool walls_visible = true;
+  bool walls_visible = true, normal_mapping = true;
   std::vector<std::unique_ptr<EmbeddedBody>> bodies;
   std::vector<std::unique_ptr<PlainBody>> plains;
   Camera camera;
@@ -238,12 +259,16 @@ struct Renderer::Impl {
     if (!walls_visible) return;
     set_common_uniforms(wall, view_projection);
     glUniform1i(wall.uniform("tiles"), 0);
+    glUniform1i(wall.uniform("detail_normal"), 1);
     glBindVertexArray(empty_vertex_array.get());
     for (const auto& body : bodies) {
       if (!body->visible || !body->posed || body->wall_count == 0) continue;
       glUniform3fv(wall.uniform("base_color"), 1, body->interior_color.data());
       glUniform2i(wall.uniform("tile_layout"), body->atlas.resolution, body->atlas.cells);
       glBindTextureUnit(0, body->tiles);
+      glBindTextureUnit(1, body->detail);
+      glUniform1i(wall.uniform("normal_mapping"), normal_mapping && body->detail != 0 ? 1 : 0);
+      body->detail_repeat.bind(6);
       body->nodes.bind(0);
       body->tets.bind(1);
       body->walls.bind(3);
@@ -326,6 +351,10 @@ std::size_t Renderer::add_body(const EmbeddedMesh& mesh) {
   m_impl->pending_upload += body->face_tile.upload(mesh.face_tile.data(), mesh.face_tile.size() * sizeof(std::int32_t));
   m_impl->pending_upload += body->face_uv.upload(mesh.face_uv.data(), mesh.face_uv.size() * sizeof(float));
   body->tiles = upload_tiles(mesh, body->atlas);
+  body->detail = upload_detail(mesh);
+  std::vector<float> repeat = mesh.face_detail_repeat;
+  repeat.resize(2 * mesh.face_tile.size(), 1.0f);
+  m_impl->pending_upload += body->detail_repeat.upload(repeat.data(), repeat.size() * sizeof(float)) + mesh.detail_normal.size();
   m_impl->pending_upload += mesh.tiles.size();
   m_impl->bodies.push_back(std::move(body));
   return m_impl->bodies.size() - 1;
@@ -383,6 +412,7 @@ void Renderer::set_transform(std::size_t plain, const Mat4f& transform) { m_impl
 void Renderer::set_visible(std::size_t plain, bool visible) { m_impl->plains.at(plain)->visible = visible; }
 void Renderer::set_body_visible(std::size_t body, bool visible) { m_impl->bodies.at(body)->visible = visible; }
 void Renderer::set_walls_visible(bool visible) { m_impl->walls_visible = visible; }
+void Renderer::set_normal_mapping(bool enabled) { m_impl->normal_mapping = enabled; }
 void Renderer::set_camera(const Camera& camera) { m_impl->camera = camera; }
 void Renderer::set_light(const Light& light) { m_impl->light = light; }
 void Renderer::set_background(const Vec3f& color) { m_impl->background = color; }

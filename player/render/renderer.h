@@ -65,6 +65,12 @@ struct EmbeddedMesh {
   int tile_resolution = 0;             ///< texels per tile side
   std::vector<std::uint8_t> tiles;     ///< tiles × resolution²: ≥ 128 inside the solid (the bake's SDF)
   Vec3f interior_color = Vec3f(0.80f, 0.45f, 0.36f);
+  /// The shared detail material of the walls: a tileable tangent-space normal map
+  /// (detail_resolution² × 3, 127.5 = 0), and per slot how many times it repeats along
+  /// the tile's u and v axes (so the grain has one size on every face). Empty: flat walls.
+  int detail_resolution = 0;
+  std::vector<std::uint8_t> detail_normal;
+  std::vector<float> face_detail_repeat;  ///< 2 per slot
 };
 
 /// One body's cage as it is this frame.
@@ -110,8 +116,10 @@ class Renderer {
   void set_transform(std::size_t plain, const Mat4f& transform);
   void set_visible(std::size_t plain, bool visible);
   void set_body_visible(std::size_t body, bool visible);
-  /// Whether the walls fracture opened are drawn (on by default).
+  /// Whether the walls fracture opened are drawn (on by default), and whether they are
+  /// normal-mapped with the detail material (on by default).
   void set_walls_visible(bool visible);
+  void set_normal_mapping(bool enabled);
 
   void set_camera(const Camera& camera);
   void set_light(const Light& light);

@@ -175,8 +175,10 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
   camera.eye = Vec3f(3.0f, 0.5f, 0.5f);
   camera.target = Vec3f(0.5f, 0.5f, 0.5f);
   renderer.set_camera(camera);
-  formats::Image walls{kSize, kSize, {}}, open{kSize, kSize, {}};
+  formats::Image walls{kSize, kSize, {}}, open{kSize, kSize, {}}, flat{kSize, kSize, {}};
   renderer.render(walls.rgba);
+  renderer.set_normal_mapping(false);
+  renderer.render(flat.rgba);
   renderer.set_walls_visible(false);
   renderer.render(open.rgba);
   if (const char* keep = std::getenv("FISSURE_TEST_IMAGE_DIR"); keep != nullptr) {
@@ -188,12 +190,16 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
   // there, so the cross-section is the foreground of the image without walls.
   const auto at = [&](const formats::Image& image, int px, int py) { return &image.rgba[4 * (py * kSize + px)]; };
   const auto foreground = [&](int px, int py) { return !std::equal(at(open, px, py), at(open, px, py) + 3, at(open, 0, 0)); };
-  std::size_t wall = 0, section = 0, stray = 0;
+  std::size_t wall = 0, section = 0, stray = 0, flat_wall = 0, relit = 0;
   for (int py = 0; py < kSize; ++py) {
     for (int px = 0; px < kSize; ++px) {
       const bool is_wall = !std::equal(at(walls, px, py), at(walls, px, py) + 3, at(open, px, py));
       section += foreground(px, py) ? 1 : 0;
       wall += is_wall ? 1 : 0;
+      // Normal mapping changes the walls' shading, never which pixels they cover.
+      const bool is_flat_wall = !std::equal(at(flat, px, py), at(flat, px, py) + 3, at(open, px, py));
+      flat_wall += is_flat_wall ? 1 : 0;
+      relit += is_wall && !std::equal(at(flat, px, py), at(flat, px, py) + 3, at(walls, px, py)) ? 1 : 0;
       bool near_section = false;
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
@@ -208,6 +214,8 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
   EXPECT_GT(section, static_cast<std::size_t>(kSize * kSize / 10));
   EXPECT_EQ(stray, 0u);                            // never over a face outside the solid
   EXPECT_GE(wall, section - section / 50);          // and over (nearly) all of the section
+  EXPECT_EQ(flat_wall, wall);
+  EXPECT_GT(relit, wall / 2) << "the detail normals should change most wall pixels' shading";
 }
 
 // Golden images: the renderer against itself over time, so a change that alters what a
