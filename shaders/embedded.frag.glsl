@@ -5,8 +5,10 @@
 in vec4 v_barycentric;
 in vec3 v_normal;
 in vec3 v_position;
+flat in uint v_fragment;
 
 uniform vec3 base_color;
+uniform bool fragment_colors;
 
 out vec4 fragment_color;
 
@@ -22,5 +24,11 @@ const float kSlack = 1e-5;
 void main() {
   vec4 b = v_barycentric;
   if (min(min(b.x, b.y), min(b.z, b.w)) < -kSlack) discard;
-  fragment_color = vec4(shade(v_normal, v_position, base_color), 1.0);
+  vec3 color = base_color;
+  if (fragment_colors) {
+    // A colour per fragment id, spread around the hue circle by the golden ratio.
+    float hue = fract(0.61803399 * float(v_fragment) + 0.1);
+    color = clamp(abs(fract(hue + vec3(0.0, 2.0 / 3.0, 1.0 / 3.0)) * 6.0 - 3.0) - 1.0, 0.0, 1.0) * 0.7 + 0.2;
+  }
+  fragment_color = vec4(shade(v_normal, v_position, color), 1.0);
 }

@@ -52,6 +52,9 @@ FrameOutput::FrameOutput(const FrameOptions& options, const LoadedScene& scene) 
   log_info("rendering " + std::to_string(options.width) + "×" + std::to_string(options.height) + " at " +
            std::to_string(options.fps) + " frames/s with " + m_description);
   m_renderer = std::make_unique<render::Renderer>(options.width, options.height);
+  m_renderer->set_walls_visible(options.walls);
+  m_renderer->set_normal_mapping(options.normal_mapping);
+  m_renderer->set_fragment_colors(options.fragment_colors);
   m_view = std::make_unique<SceneView>(scene.world, scene.assets, *m_renderer, scene.camera);
 }
 

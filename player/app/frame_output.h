@@ -23,6 +23,9 @@ struct FrameOptions {
   int width = 1280, height = 720;
   int fps = 30;
   render::Backend backend = render::Backend::OSMesa;
+  bool walls = true;             ///< draw the walls fracture opens
+  bool normal_mapping = true;    ///< detail normals on the walls
+  bool fragment_colors = false;  ///< debug view: a colour per fragment
   [[nodiscard]] bool wanted() const { return !frames.empty() || !video.empty(); }
 };
 

@@ -34,6 +34,10 @@ int main(int argc, char** argv) {
   run->add_option("--video", video, "Write an H.264 video (needs ffmpeg), e.g. out/drop.mp4");
   run->add_option("--size", size, "Image size, WIDTHxHEIGHT")->capture_default_str();
   run->add_option("--fps", options.images.fps, "Frames per simulated second (independent of solver.dt)")->capture_default_str();
+  bool no_walls = false, no_normal_mapping = false;
+  run->add_flag("--no-walls", no_walls, "Do not draw the walls fracture opens (the mesh alone, cracks show through)");
+  run->add_flag("--no-normal-mapping", no_normal_mapping, "Draw the walls flat, without the detail normals");
+  run->add_flag("--fragment-colors", options.images.fragment_colors, "Debug view: each fragment in its own colour");
   run->add_option("--backend", backend, "Headless OpenGL: osmesa (software, the default) or egl (surfaceless; a GPU's driver where there is one)")
       ->capture_default_str();
   run->add_option("--steps", options.steps, "Number of steps of solver.dt")->capture_default_str();
@@ -60,6 +64,8 @@ int main(int argc, char** argv) {
     options.images.video = video;
     std::tie(options.images.width, options.images.height) = player::parse_size(size);
     options.images.backend = render::parse_backend(backend);
+    options.images.walls = !no_walls;
+    options.images.normal_mapping = !no_normal_mapping;
     const formats::Scene scene = formats::read_scene(scene_path);
     const int wanted = threads >= 0 ? threads : scene.solver.threads;
     std::unique_ptr<tbb::global_control> limit;

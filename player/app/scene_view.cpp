@@ -245,7 +245,7 @@ void SceneView::update(const sim::World& world) {
   for (std::size_t b = 0; b < m_bodies.size(); ++b) {
     update_render_frame(world.frame(b, false), m_frames[b]);  // the renderer makes F itself
     const RenderFrame& f = m_frames[b];
-    m_renderer.set_pose(m_bodies[b], {f.positions, f.tets, f.faces, f.topology_version});
+    m_renderer.set_pose(m_bodies[b], {f.positions, f.tets, f.faces, f.fragment, f.topology_version});
   }
   for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
     const sim::Projectile& p = world.projectiles()[j];

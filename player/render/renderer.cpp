@@ -80,7 +80,7 @@ struct EmbeddedBody {
   std::uint64_t topology_version = ~std::uint64_t{0};
   bool posed = false, visible = true;
   // Walls: the static per-slot tables and tiles, and the slots fracture opened.
-  StorageBuffer face_tile, face_uv, walls, detail_repeat;
+  StorageBuffer face_tile, face_uv, walls, detail_repeat, fragments;
   GLuint detail = 0;  ///< GL_TEXTURE_2D (RGB8, repeating, mipmapped), 0 without a detail material
   std::vector<std::int32_t> face_tile_host;
   GLsizei wall_count = 0;
@@ -206,7 +206,7 @@ struct Renderer::Impl {
   GlName depth{GlName::Kind::Renderbuffer};
   ShaderProgram embedded, plain, wall;
   GlName empty_vertex_array{GlName::Kind::VertexArray};  ///< walls read everything from storage buffers
-  bool walls_visible = true, normal_mapping = true;
+  bool walls_visible = true, normal_mapping = true, fragment_colors = false;
   std::vector<std::unique_ptr<EmbeddedBody>> bodies;
   std::vector<std::unique_ptr<PlainBody>> plains;
   Camera camera;
@@ -244,12 +244,14 @@ struct Renderer::Impl {
 
   void draw_bodies(const Mat4f& view_projection) {
     set_common_uniforms(embedded, view_projection);
+    glUniform1i(embedded.uniform("fragment_colors"), fragment_colors ? 1 : 0);
     for (const auto& body : bodies) {
       if (!body->visible || !body->posed || body->corners == 0) continue;
       glUniform3fv(embedded.uniform("base_color"), 1, body->color.data());
       body->nodes.bind(0);
       body->tets.bind(1);
       body->rest_inverse.bind(2);
+      body->fragments.bind(7);
       glBindVertexArray(body->vertex_array.get());
       glDrawElements(GL_TRIANGLES, body->corners, GL_UNSIGNED_INT, nullptr);
     }
@@ -374,6 +376,7 @@ void Renderer::set_pose(std::size_t index, const BodyPose& pose) {
       if (pose.faces[s] == kFaceFractured && body.face_tile_host[s] != kWallNone) walls.push_back(static_cast<std::uint32_t>(s));
     }
     bytes += body.walls.upload(walls.data(), walls.size() * sizeof(std::uint32_t));
+    bytes += body.fragments.upload(pose.fragment.data(), pose.fragment.size_bytes());
     body.wall_count = static_cast<GLsizei>(walls.size());
     body.topology_version = pose.topology_version;
   }
@@ -413,6 +416,7 @@ void Renderer::set_visible(std::size_t plain, bool visible) { m_impl->plains.at(
 void Renderer::set_body_visible(std::size_t body, bool visible) { m_impl->bodies.at(body)->visible = visible; }
 void Renderer::set_walls_visible(bool visible) { m_impl->walls_visible = visible; }
 void Renderer::set_normal_mapping(bool enabled) { m_impl->normal_mapping = enabled; }
+void Renderer::set_fragment_colors(bool enabled) { m_impl->fragment_colors = enabled; }
 void Renderer::set_camera(const Camera& camera) { m_impl->camera = camera; }
 void Renderer::set_light(const Light& light) { m_impl->light = light; }
 void Renderer::set_background(const Vec3f& color) { m_impl->background = color; }

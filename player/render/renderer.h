@@ -79,6 +79,8 @@ struct BodyPose {
   std::span<const std::uint32_t> tets;   ///< 4 per tet
   /// Per (tet, local face) slot: 2 where fracture opened the face (sim::FaceState::Fractured).
   std::span<const std::uint8_t> faces;
+  /// Per tet, its fragment (connected piece); for the fragment view. May be empty.
+  std::span<const std::uint32_t> fragment;
   std::uint64_t topology_version = 0;    ///< `tets` and `faces` are uploaded only when this changes
 };
 
@@ -120,6 +122,8 @@ class Renderer {
   /// normal-mapped with the detail material (on by default).
   void set_walls_visible(bool visible);
   void set_normal_mapping(bool enabled);
+  /// Debug view: each fragment (connected piece) of a body in its own colour.
+  void set_fragment_colors(bool enabled);
 
   void set_camera(const Camera& camera);
   void set_light(const Light& light);

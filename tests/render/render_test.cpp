@@ -170,7 +170,7 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
   render::Renderer renderer(kSize, kSize);
   const auto world = s.world();
   renderer.add_body(player::embedded_mesh(bundle, world->bodies()[0].integrator()));
-  renderer.set_pose(0, {positions, tet_nodes, faces, 1});
+  renderer.set_pose(0, {positions, tet_nodes, faces, {}, 1});
   render::Camera camera;
   camera.eye = Vec3f(3.0f, 0.5f, 0.5f);
   camera.target = Vec3f(0.5f, 0.5f, 0.5f);
