@@ -26,6 +26,7 @@ struct FrameOptions {
   bool walls = true;             ///< draw the walls fracture opens
   bool normal_mapping = true;    ///< detail normals on the walls
   bool fragment_colors = false;  ///< debug view: a colour per fragment
+  bool cage = false;             ///< debug view: the cage's edges
   [[nodiscard]] bool wanted() const { return !frames.empty() || !video.empty(); }
 };
 

@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   run->add_flag("--no-walls", no_walls, "Do not draw the walls fracture opens (the mesh alone, cracks show through)");
   run->add_flag("--no-normal-mapping", no_normal_mapping, "Draw the walls flat, without the detail normals");
   run->add_flag("--fragment-colors", options.images.fragment_colors, "Debug view: each fragment in its own colour");
+  run->add_flag("--cage", options.images.cage, "Debug view: draw the cages' edges over the image");
   run->add_option("--backend", backend, "Headless OpenGL: osmesa (software, the default) or egl (surfaceless; a GPU's driver where there is one)")
       ->capture_default_str();
   run->add_option("--steps", options.steps, "Number of steps of solver.dt")->capture_default_str();

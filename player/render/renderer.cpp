@@ -204,9 +204,9 @@ struct Renderer::Impl {
   GlName framebuffer{GlName::Kind::Framebuffer};
   GlName color{GlName::Kind::Renderbuffer};
   GlName depth{GlName::Kind::Renderbuffer};
-  ShaderProgram embedded, plain, wall;
+  ShaderProgram embedded, plain, wall, cage;
   GlName empty_vertex_array{GlName::Kind::VertexArray};  ///< walls read everything from storage buffers
-  bool walls_visible = true, normal_mapping = true, fragment_colors = false;
+  bool walls_visible = true, normal_mapping = true, fragment_colors = false, cage_visible = false;
   std::vector<std::unique_ptr<EmbeddedBody>> bodies;
   std::vector<std::unique_ptr<PlainBody>> plains;
   Camera camera;
@@ -223,7 +223,8 @@ struct Renderer::Impl {
         plain({embedded_shader("plain.vert.glsl"), embedded_shader("plain.frag.glsl"),
                embedded_shader("lighting.frag.glsl")}),
         wall({embedded_shader("wall.vert.glsl"), embedded_shader("wall.frag.glsl"),
-              embedded_shader("lighting.frag.glsl")}) {
+              embedded_shader("lighting.frag.glsl")}),
+        cage({embedded_shader("cage.vert.glsl"), embedded_shader("cage.frag.glsl")}) {
     glNamedRenderbufferStorage(color.get(), GL_RGBA8, w, h);
     glNamedRenderbufferStorage(depth.get(), GL_DEPTH_COMPONENT24, w, h);
     glNamedFramebufferRenderbuffer(framebuffer.get(), GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color.get());
@@ -277,6 +278,21 @@ struct Renderer::Impl {
       body->face_tile.bind(4);
       body->face_uv.bind(5);
       glDrawArrays(GL_TRIANGLES, 0, 3 * body->wall_count);
+    }
+  }
+
+  void draw_cages(const Mat4f& view_projection) {
+    if (!cage_visible) return;
+    cage.use();
+    glUniformMatrix4fv(cage.uniform("view_projection"), 1, GL_FALSE, view_projection.data());
+    const Vec3f color(0.15f, 0.25f, 0.55f);
+    glUniform3fv(cage.uniform("base_color"), 1, color.data());
+    glBindVertexArray(empty_vertex_array.get());
+    for (const auto& body : bodies) {
+      if (!body->visible || !body->posed) continue;
+      body->nodes.bind(0);
+      body->tets.bind(1);
+      glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(12 * (body->tets.size() / (4 * sizeof(std::uint32_t)))));
     }
   }
 
@@ -417,6 +433,7 @@ void Renderer::set_body_visible(std::size_t body, bool visible) { m_impl->bodies
 void Renderer::set_walls_visible(bool visible) { m_impl->walls_visible = visible; }
 void Renderer::set_normal_mapping(bool enabled) { m_impl->normal_mapping = enabled; }
 void Renderer::set_fragment_colors(bool enabled) { m_impl->fragment_colors = enabled; }
+void Renderer::set_cage_visible(bool visible) { m_impl->cage_visible = visible; }
 void Renderer::set_camera(const Camera& camera) { m_impl->camera = camera; }
 void Renderer::set_light(const Light& light) { m_impl->light = light; }
 void Renderer::set_background(const Vec3f& color) { m_impl->background = color; }
@@ -437,6 +454,7 @@ void Renderer::render(std::vector<std::uint8_t>& rgba) {
   r.draw_plains(view_projection);
   r.draw_bodies(view_projection);
   r.draw_walls(view_projection);
+  r.draw_cages(view_projection);
   const std::size_t row = 4 * static_cast<std::size_t>(r.width);
   rgba.resize(row * static_cast<std::size_t>(r.height));
   glPixelStorei(GL_PACK_ALIGNMENT, 1);

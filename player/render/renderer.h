@@ -124,6 +124,8 @@ class Renderer {
   void set_normal_mapping(bool enabled);
   /// Debug view: each fragment (connected piece) of a body in its own colour.
   void set_fragment_colors(bool enabled);
+  /// Debug view: the cages' edges over the image.
+  void set_cage_visible(bool visible);
 
   void set_camera(const Camera& camera);
   void set_light(const Light& light);

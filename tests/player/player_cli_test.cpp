@@ -92,6 +92,22 @@ TEST_F(PlayerCli, FramesAndVideoComeAtTheirOwnRateWithARecordPerFrame) {
   EXPECT_NE(result.output.find("frames     11 at 20/s"), std::string::npos) << result.output;
 }
 
+// Every view option draws without a GL error (the renderer checks after each frame),
+// and each changes the image.
+TEST_F(PlayerCli, DebugViewsAndToggledFeaturesRender) {
+  const auto frame = [&](const std::string& options, const std::string& name) {
+    const auto folder = dir.path() / name;
+    const auto result = player("run " + quoted(scene("")) + " --steps 1 --fps 1 --size 64x48 --frames " + quoted(folder) + " " + options);
+    EXPECT_EQ(result.exit_code, 0) << options << "\n" << result.output;
+    return formats::read_png(folder / "frame-00000.png").rgba;
+  };
+  const auto plain = frame("", "plain");
+  for (const char* options : {"--cage", "--fragment-colors"}) EXPECT_NE(frame(options, "view"), plain) << options;
+  for (const char* options : {"--no-walls", "--no-normal-mapping", "--backend egl"}) {
+    EXPECT_EQ(frame(options, "same"), plain) << options << ": nothing is broken open at rest, and EGL draws as OSMesa";
+  }
+}
+
 TEST_F(PlayerCli, ImageOptionsThatCannotWorkAreErrors) {
   auto result = player("run " + quoted(scene("")) + " --no-render --frames " + quoted(dir.path() / "f"));
   EXPECT_EQ(result.exit_code, 1);
