@@ -118,7 +118,6 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
   std::unique_ptr<FrameOutput> images;
   if (options.images.wanted()) images = std::make_unique<FrameOutput>(options.images, loaded);
   const RunEnd end = images ? run_with_frames(loop, loaded.world, *images, options) : loop.run_steps(options.steps);
-  if (images) images->finish();
 
   RunRecord record{scene.file.filename().string(), {}, load_seconds, &statistics, diagnostics ? &*diagnostics : nullptr, end};
   for (const BodyAssets& a : loaded.assets) record.bundles.push_back(a.bundle_name);
@@ -128,7 +127,10 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
     std::printf("report     %s\n", options.report.string().c_str());
   }
   if (trajectory) std::printf("trajectory %s (%zu frames)\n", trajectory->path().string().c_str(), trajectory->frame_count());
-  if (images) print_images(options.images, *images);
+  if (images) {
+    images->finish();  // after the report: a failing ffmpeg must not cost the run's record
+    print_images(options.images, *images);
+  }
   if (end.ok()) return 0;
   const sim::StepFailure failure =
       end.stop ? sim::StepFailure{end.stop->message, end.stop->hint} : loaded.world.explain(end.status);
