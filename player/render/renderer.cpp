@@ -51,6 +51,14 @@ struct TileAtlas {
   int resolution = 0, cells = 1, layers = 0;  ///< tile side [texels], tiles per layer side, layers
 };
 
+/// Linear magnification, `min_filter` minification, `wrap` on both axes.
+void set_sampling(GLuint texture, GLenum min_filter, GLenum wrap) {
+  glTextureParameteri(texture, GL_TEXTURE_MIN_FILTER, static_cast<GLint>(min_filter));
+  glTextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(texture, GL_TEXTURE_WRAP_S, static_cast<GLint>(wrap));
+  glTextureParameteri(texture, GL_TEXTURE_WRAP_T, static_cast<GLint>(wrap));
+}
+
 /// The walls' detail normal map: tileable, so it repeats; mipmapped, so far walls do
 /// not shimmer.
 GLuint upload_detail(const EmbeddedMesh& mesh) {
@@ -63,10 +71,7 @@ GLuint upload_detail(const EmbeddedMesh& mesh) {
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTextureSubImage2D(texture, 0, 0, 0, res, res, GL_RGB, GL_UNSIGNED_BYTE, mesh.detail_normal.data());
   glGenerateTextureMipmap(texture);
-  glTextureParameteri(texture, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-  glTextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  glTextureParameteri(texture, GL_TEXTURE_WRAP_S, GL_REPEAT);
-  glTextureParameteri(texture, GL_TEXTURE_WRAP_T, GL_REPEAT);
+  set_sampling(texture, GL_LINEAR_MIPMAP_LINEAR, GL_REPEAT);
   return texture;
 }
 
@@ -128,10 +133,7 @@ GLuint upload_tiles(const EmbeddedMesh& mesh, TileAtlas& atlas) {
                         static_cast<int>(tile / per_layer), res, res, 1, GL_RED, GL_UNSIGNED_BYTE,
                         mesh.tiles.data() + tile * tile_bytes);
   }
-  glTextureParameteri(texture, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-  glTextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  glTextureParameteri(texture, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-  glTextureParameteri(texture, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  set_sampling(texture, GL_LINEAR, GL_CLAMP_TO_EDGE);
   return texture;
 }
 
