@@ -56,21 +56,25 @@ void log_loaded(const formats::Scene& scene, const sim::World& world, double sec
            std::to_string(seconds).substr(0, 5) + " s");
 }
 
-/// Frames at a fixed rate, whatever dt: the physics catches up with each frame's time
-/// (RunLoop::advance), then the frame is drawn. The run covers `steps` × dt seconds.
+/// Frames at a fixed rate, whatever dt: before frame f the physics has taken the whole
+/// number of steps nearest f / fps (counted in steps, so rounding never drifts), and the
+/// run takes exactly `steps` steps, the same as without frames.
 RunEnd run_with_frames(RunLoop& loop, const sim::World& world, FrameOutput& images, const RunOptions& options) {
-  const double frame_time = 1.0 / options.images.fps;
-  const auto frames = static_cast<long>(std::floor(static_cast<double>(options.steps) * world.settings().step.dt / frame_time + 1e-9));
+  const double steps_per_frame = 1.0 / (options.images.fps * world.settings().step.dt);
   loop.start();
   images.capture(world, 0, 0.0);
-  for (long f = 0; f < frames && !loop.stopped(); ++f) {
+  long taken = 0;
+  for (long f = 1; !loop.stopped(); ++f) {
+    const long target = std::llround(static_cast<double>(f) * steps_per_frame);
+    if (target > options.steps) break;
     const auto start = Clock::now();
-    // No cap: an offline run never drops simulated time.
-    const FrameAdvance advance = loop.advance(frame_time, std::numeric_limits<int>::max());
+    const long steps = loop.take_steps(target - taken);
+    taken += steps;
     const double physics_ms = 1e3 * std::chrono::duration<double>(Clock::now() - start).count();
-    if (advance.failed) break;
-    images.capture(world, advance.steps, physics_ms);
+    if (loop.stopped()) break;
+    images.capture(world, static_cast<int>(steps), physics_ms);
   }
+  loop.take_steps(options.steps - taken);  // what is left after the last whole frame
   return loop.finish();
 }
 

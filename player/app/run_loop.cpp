@@ -60,6 +60,12 @@ FrameAdvance RunLoop::advance(double seconds, int max_steps_per_frame) {
   return frame;
 }
 
+long RunLoop::take_steps(long steps) {
+  long taken = 0;
+  while (taken < steps && !stopped() && step_once()) ++taken;
+  return taken;
+}
+
 RunEnd RunLoop::finish() {
   m_end.wall_seconds = std::chrono::duration<double>(Clock::now() - m_start).count();
   for (RunObserver* o : m_observers) o->on_finish(m_world, m_end);

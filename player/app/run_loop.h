@@ -67,6 +67,8 @@ class RunLoop {
   /// frame cannot make the next one slower). start() first, finish() at the end.
   void start();
   FrameAdvance advance(double seconds, int max_steps_per_frame = 64);
+  /// Takes up to `steps` steps (after start()); returns how many it took (fewer when one fails).
+  long take_steps(long steps);
   RunEnd finish();
 
   [[nodiscard]] bool stopped() const { return !m_end.ok(); }

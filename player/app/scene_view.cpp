@@ -215,6 +215,10 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
     m_camera.target = camera->target.cast<float>();
     m_camera.fov_y_degrees = static_cast<float>(camera->fov_degrees);
     m_camera.up = camera->up ? Vec3f(camera->up->cast<float>()) : up;
+    // The world's up may run along the view (a camera looking straight down): then any
+    // direction across the view will do, as in frame_box.
+    const Vec3f view = (m_camera.target - m_camera.eye).normalized();
+    if (std::abs(view.dot(m_camera.up.normalized())) > 0.999f) m_camera.up = m_camera.up.unitOrthogonal();
     const float distance = (m_camera.target - m_camera.eye).norm();
     const float size = std::max(static_cast<float>(bounds.diagonal().norm()), 1e-3f);
     m_camera.near_plane = std::max(1e-3f * distance, 0.01f * size);
