@@ -56,11 +56,7 @@ class OSMesaBackend : public Context {
 class EglBackend : public Context {
  public:
   EglBackend() {
-    const auto get_platform_display =
-        reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
-    if (get_platform_display == nullptr) fail("eglGetPlatformDisplayEXT is missing");
-    m_display = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
-    if (m_display == EGL_NO_DISPLAY || !eglInitialize(m_display, nullptr, nullptr)) fail("no surfaceless display");
+    m_display = open_display();
     if (!eglBindAPI(EGL_OPENGL_API)) fail("desktop OpenGL is not available");
     // No config: the context draws only into the renderer's FBO (EGL_KHR_no_config_context;
     // the surfaceless platform may offer no config with a surface type at all).
@@ -76,7 +72,7 @@ class EglBackend : public Context {
     eglMakeCurrent(m_display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     if (m_context != EGL_NO_CONTEXT) eglDestroyContext(m_display, m_context);
     eglReleaseThread();
-    // No eglTerminate: the surfaceless display is shared by the whole process (EGL hands
+    // No eglTerminate: the display is shared by the whole process (EGL hands
     // every caller the same one), and terminating it lets libglvnd unload Mesa's driver,
     // which leaves its caches unattributable to LeakSanitizer. The driver goes at exit.
   }
@@ -89,9 +85,29 @@ class EglBackend : public Context {
   }
 
  private:
+  /// Mesa's surfaceless platform where it exists (any Mesa driver, llvmpipe included);
+  /// else the first EGL device (EGL_EXT_platform_device): NVIDIA's driver offers only
+  /// that one for drawing without a window system.
+  EGLDisplay open_display() {
+    const auto get_platform_display =
+        reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
+    if (get_platform_display == nullptr) fail("eglGetPlatformDisplayEXT is missing");
+    EGLDisplay display = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+    if (display != EGL_NO_DISPLAY && eglInitialize(display, nullptr, nullptr)) return display;
+    const auto query_devices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
+    EGLDeviceEXT device = nullptr;
+    EGLint devices = 0;
+    if (query_devices == nullptr || !query_devices(1, &device, &devices) || devices < 1) {
+      fail("neither a surfaceless display nor an EGL device");
+    }
+    display = get_platform_display(EGL_PLATFORM_DEVICE_EXT, device, nullptr);
+    if (display == EGL_NO_DISPLAY || !eglInitialize(display, nullptr, nullptr)) fail("the EGL device has no display");
+    return display;
+  }
+
   [[noreturn]] void fail(const std::string& what) {
     if (m_display != EGL_NO_DISPLAY) eglTerminate(m_display);
-    throw Error("EGL (surfaceless): " + what + " (EGL error 0x" + hex(eglGetError()) + ")",
+    throw Error("EGL: " + what + " (EGL error 0x" + hex(eglGetError()) + ")",
                 "install libegl-mesa0 and libgl1-mesa-dri, or use --backend osmesa");
   }
   static std::string hex(EGLint code) {

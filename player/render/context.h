@@ -3,8 +3,9 @@
 /// context current and loads GL's functions; the renderer draws into its own FBO, so
 /// every backend gives the same image.
 ///  - OSMesa: Mesa's off-screen library, software (llvmpipe); the default on Debian 12.
-///  - EGL surfaceless (EGL_PLATFORM_SURFACELESS_MESA): needs no display and no /dev/dri;
-///    llvmpipe here, the GPU's driver where there is one; OSMesa is gone from Mesa 25.1.
+///  - EGL without a window system: Mesa's surfaceless platform (no display, no /dev/dri;
+///    llvmpipe here), else the first EGL device (EGL_EXT_platform_device: NVIDIA's
+///    driver on a GPU machine). OSMesa is gone from Mesa 25.1.
 /// The window (GLFW) is a third backend, in the viewer.
 
 #include <memory>
