@@ -3,12 +3,15 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
-
-#include "bake/surface_distance.h"
+#include <queue>
 #include <utility>
 #include <vector>
+
+#include "bake/surface_distance.h"
 #include "common/error.h"
 
 namespace fissure::bake {
@@ -188,6 +191,41 @@ void bake_detail(std::uint32_t resolution, std::uint64_t seed, std::vector<std::
   }
 }
 
+double triangle_clearance(const SurfaceDistance& surface, const Vec3& a, const Vec3& b, const Vec3& c, double tolerance,
+                          int max_splits) {
+  struct Piece {
+    std::array<Vec3, 3> corner;
+    std::array<double, 3> distance;  ///< from each corner to the surface
+    double bound = 0;                ///< no point of the piece is nearer the surface
+  };
+  // At a point x = Σ λᵢ vᵢ of a piece, d(x) ≥ Σ λᵢ (dᵢ − |x − vᵢ|) ≥ min dᵢ − Σ λᵢ |x − vᵢ|,
+  // and Σ λᵢ |x − vᵢ| is at most the circumradius (its square is at most Σ λᵢ |x − vᵢ|²
+  // = R² − |x − centre|²) and at most the diameter (for slivers, whose R is huge).
+  const auto piece = [](const Vec3& p, const Vec3& q, const Vec3& r, double dp, double dq, double dr) {
+    const double a = (q - p).norm(), b = (r - p).norm(), c = (r - q).norm();
+    const double twice_area = (q - p).cross(r - p).norm();
+    const double circumradius = twice_area > 0.0 ? a * b * c / (2.0 * twice_area) : std::numeric_limits<double>::infinity();
+    return Piece{{p, q, r}, {dp, dq, dr}, std::min({dp, dq, dr}) - std::min(circumradius, std::max({a, b, c}))};
+  };
+  const auto higher_bound = [](const Piece& x, const Piece& y) { return x.bound > y.bound; };
+  std::priority_queue<Piece, std::vector<Piece>, decltype(higher_bound)> pieces(higher_bound);
+  pieces.push(piece(a, b, c, surface.distance(a), surface.distance(b), surface.distance(c)));
+  for (int splits = 0;; ++splits) {
+    const Piece p = pieces.top();  // the lowest bound: the triangle's least distance is at least this
+    const double nearest = std::min({p.distance[0], p.distance[1], p.distance[2]});
+    if (nearest - p.bound <= tolerance * nearest || splits == max_splits) return std::max(0.0, p.bound);
+    pieces.pop();
+    const auto& [x0, x1, x2] = p.corner;
+    const auto& [d0, d1, d2] = p.distance;
+    const Vec3 m01 = 0.5 * (x0 + x1), m12 = 0.5 * (x1 + x2), m20 = 0.5 * (x2 + x0);
+    const double e01 = surface.distance(m01), e12 = surface.distance(m12), e20 = surface.distance(m20);
+    pieces.push(piece(x0, m01, m20, d0, e01, e20));
+    pieces.push(piece(m01, x1, m12, e01, d1, e12));
+    pieces.push(piece(m20, m12, x2, e20, e12, d2));
+    pieces.push(piece(m01, m12, m20, e01, e12, e20));
+  }
+}
+
 formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, const WallOptions& options) {
   validate(options);
   formats::Walls w;
@@ -276,6 +314,12 @@ formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, 
   for (std::size_t i = 0; i < depth_m.size(); ++i) {
     w.depth[i] = static_cast<std::uint8_t>(std::lround(255.0 * std::clamp(depth_m[i] / w.depth_scale, 0.0, 1.0)));
   }
+  w.face_clearance.assign(face_count, 0.0);
+  tbb::parallel_for(FaceIndex{0}, static_cast<FaceIndex>(face_count), [&](FaceIndex f) {
+    if (w.face_class[f] != FaceClass::Inside) return;
+    w.face_clearance[f] = triangle_clearance(surface, nodes.col(b.faces.nodes(0, f)), nodes.col(b.faces.nodes(1, f)),
+                                             nodes.col(b.faces.nodes(2, f)));
+  });
   bake_detail(options.detail_resolution, options.detail_seed, w.detail_height, w.detail_normal);
   return w;
 }

@@ -43,6 +43,7 @@ void write_walls(hid_t file, const Walls& w) {
   write_vector(group.id(), "face_class", ElementType::U8, w.face_class);
   write_vector(group.id(), "face_tile", ElementType::U32, w.face_tile);
   write_vector(group.id(), "face_inside_area", ElementType::F64, w.face_inside_area);
+  if (!w.face_clearance.empty()) write_vector(group.id(), "face_clearance", ElementType::F64, w.face_clearance);
   const auto tiles = static_cast<hsize_t>(w.tile_count());
   h5::write_dataset(group.id(), "sdf", ElementType::U8, {tiles, w.resolution, w.resolution}, w.sdf.data());
   h5::write_dataset(group.id(), "depth", ElementType::U8, {tiles, w.depth_resolution, w.depth_resolution}, w.depth.data());
@@ -374,6 +375,9 @@ Bundle read_bundle_unchecked_context(const std::filesystem::path& path) {
     }
     w.face_tile = reader.read_vector<Index>(g.id(), where, "face_tile", ElementType::U32, faces);
     w.face_inside_area = reader.read_vector<double>(g.id(), where, "face_inside_area", ElementType::F64, faces);
+    if (h5::has_link(g.id(), "face_clearance")) {  // schema 1.1
+      w.face_clearance = reader.read_vector<double>(g.id(), where, "face_clearance", ElementType::F64, faces);
+    }
     const hsize_t tiles = reader.expect_shape(g.id(), where, "sdf", {w.resolution, w.resolution});
     reader.check_range(w.face_tile.data(), w.face_tile.size(), 1, tiles, where + "/face_tile", true);
     w.sdf.resize(tiles * w.resolution * w.resolution);

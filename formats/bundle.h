@@ -21,7 +21,7 @@ namespace fissure::formats {
 
 inline constexpr const char* kBundleFormatName = "fissure-bundle";
 inline constexpr int kBundleSchemaMajor = 1;
-inline constexpr int kBundleSchemaMinor = 0;
+inline constexpr int kBundleSchemaMinor = 1;  ///< 1.1 added walls/face_clearance
 
 /// One input file of the bake, so pipelines can tell when a bundle is stale.
 struct BundleInput {
@@ -96,6 +96,10 @@ struct Walls {
   std::vector<FaceClass> face_class;      ///< #faces (stored as uint8 0–3)
   std::vector<Index> face_tile;           ///< #faces: tile of a crossing face, else kInvalidIndex
   std::vector<double> face_inside_area;   ///< #faces: area of face ∩ solid [m²] (exact geometry, double rounding)
+  /// #faces (schema ≥ 1.1; empty when read from 1.0): for a face inside the solid, a lower
+  /// bound of the distance from any of its points to the outer surface [m], so relief
+  /// displaced that far from it stays inside (thesis V.C); 0 for every other class.
+  std::vector<double> face_clearance;
   std::uint32_t resolution = 0;           ///< texels per tile side
   double sdf_range_texels = 0;            ///< signed distance saturates at ± this many texels
   /// tiles × res × res (row j, column i): 128 + 127·d/range for inside texels, 127 + 128·d/range

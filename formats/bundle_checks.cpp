@@ -95,6 +95,14 @@ VerifyCheck check_walls(const Bundle& b) {
     const bool has_contour = e.contour_offsets[f + 1] > e.contour_offsets[f];
     const double area = face_area(b.cage, b.faces, f);
     const FaceClass cls = w.face_class[f];
+    if (!w.face_clearance.empty()) {
+      const double clearance = w.face_clearance[f];
+      if (!(clearance >= 0.0 && std::isfinite(clearance)) || (clearance > 0.0 && cls != FaceClass::Inside)) {
+        fail("face " + std::to_string(f) + " of class " + std::to_string(static_cast<int>(cls)) + " has clearance " +
+             format_double(clearance) + " (a finite distance ≥ 0, and 0 unless the face is inside the solid)");
+        continue;
+      }
+    }
     if (cls == FaceClass::Degenerate) {
       if (!e.face_degenerate[f]) fail("face " + std::to_string(f) + " is classed degenerate but is not");
       if (w.face_tile[f] != kInvalidIndex) fail("degenerate face " + std::to_string(f) + " has a tile");

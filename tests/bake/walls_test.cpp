@@ -2,8 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "bake/bake.h"
 #include "common/error.h"
@@ -188,6 +190,45 @@ TEST(Walls, DetailMapsAreSeededAndTileable) {
   }
   EXPECT_LE(seam, inner);
   EXPECT_GT(inner, 0);
+}
+
+// Inside the slab-topped box the distance to its surface is the least distance to its
+// six planes: a minimum of linear functions, so concave, and its least value over a face
+// lies at a corner. The clearance must never exceed it (relief displaced that far stays
+// inside) and must come within the 10% tolerance of it.
+TEST(Walls, InteriorFaceClearanceIsWithinTenPercentBelowTheExactDistance) {
+  const formats::Bundle b = bake_plane_case(8);
+  const auto box_distance = [](const Vec3& p) {
+    return std::min({p.x() + 0.9, 0.9 - p.x(), p.y() + 0.9, 0.9 - p.y(), p.z() + 0.9, 0.3 - p.z()});
+  };
+  const formats::Walls& w = *b.walls;
+  ASSERT_EQ(w.face_clearance.size(), b.faces.face_count());
+  std::size_t inside = 0;
+  for (FaceIndex f = 0; f < b.faces.face_count(); ++f) {
+    if (w.face_class[f] != formats::FaceClass::Inside) {
+      EXPECT_EQ(w.face_clearance[f], 0.0) << "face " << f;
+      continue;
+    }
+    ++inside;
+    double exact = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k) exact = std::min(exact, box_distance(b.cage.rest_positions.col(b.faces.nodes(k, f))));
+    EXPECT_LE(w.face_clearance[f], exact * (1.0 + 1e-12)) << "face " << f;
+    EXPECT_GE(w.face_clearance[f], 0.9 * exact) << "face " << f;
+  }
+  EXPECT_GT(inside, 20u);
+  EXPECT_TRUE(formats::verify_bundle(b).passed());
+}
+
+TEST(Walls, VerifyRejectsAClearanceOnAFaceThatIsNotInside) {
+  formats::Bundle b = bake_plane_case(8);
+  formats::Walls& w = *b.walls;
+  for (FaceIndex f = 0; f < b.faces.face_count(); ++f) {
+    if (w.face_class[f] == formats::FaceClass::Crossing) {
+      w.face_clearance[f] = 0.01;
+      break;
+    }
+  }
+  EXPECT_FALSE(formats::verify_bundle(b).passed());
 }
 
 TEST(Walls, BadOptionsAreErrors) {
