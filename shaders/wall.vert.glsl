@@ -9,6 +9,7 @@ layout(std430, binding = 3) readonly buffer Walls { uint wall_slot[]; };       /
 layout(std430, binding = 4) readonly buffer FaceTiles { int face_tile[]; };    // per slot
 layout(std430, binding = 5) readonly buffer FaceUvs { float face_uv[]; };      // 6 per slot
 layout(std430, binding = 6) readonly buffer DetailRepeat { float detail_repeat[]; };  // 2 per slot
+layout(std430, binding = 8) readonly buffer FaceRelief { float face_relief[]; };       // per slot [m]
 
 uniform mat4 view_projection;
 
@@ -19,6 +20,7 @@ flat out vec3 v_normal;
 flat out vec3 v_tangent;    // ∂position/∂u of the tile's parameters, for the detail normals
 flat out vec3 v_bitangent;  // ∂position/∂v
 out vec3 v_position;
+flat out float v_relief;  // for the tessellation stages (wall.tesc.glsl): the most relief allowed
 
 const uint kFaceNodes[12] = uint[12](1u, 2u, 3u, 0u, 3u, 2u, 0u, 1u, 3u, 0u, 2u, 1u);
 
@@ -41,5 +43,6 @@ void main() {
   v_uv = uv(slot, j);
   v_detail_uv = v_uv * vec2(detail_repeat[2u * slot], detail_repeat[2u * slot + 1u]);
   v_tile = face_tile[slot];
+  v_relief = face_relief[slot];
   gl_Position = view_projection * vec4(v_position, 1.0);
 }

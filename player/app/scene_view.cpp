@@ -88,10 +88,17 @@ Vec3 world_up(const sim::World& world) {
 
 }  // namespace
 
+/// How far tessellated relief may raise or sink an interior wall, as a fraction of the
+/// detail's period (a quarter of the cage's mean edge): deep enough to break the flat
+/// look of a cut at the distance a piece is seen from, shallow enough that the
+/// normal-mapped slopes still match. The bake's clearance caps it further per face.
+constexpr double kReliefOfPeriod = 0.25;
+
 /// The walls' per-slot tables (renderer.h): which tile each (tet, local face) shows,
 /// and where each of its corners sits in the tile (texel (i, j) lies at face point
-/// n0 + u (n1 − n0) + v (n2 − n0) with (n0, n1, n2) the face's nodes in the table).
-void add_wall_tables(const formats::Bundle& bundle, render::EmbeddedMesh& mesh) {
+/// n0 + u (n1 − n0) + v (n2 − n0) with (n0, n1, n2) the face's nodes in the table);
+/// the detail's repeat and the relief allowed, in world metres (`scale`: the scene's).
+void add_wall_tables(const formats::Bundle& bundle, double scale, render::EmbeddedMesh& mesh) {
   const std::size_t tets = bundle.cage.tet_count();
   mesh.face_tile.assign(4 * tets, render::kWallNone);
   mesh.face_uv.assign(24 * tets, 0.0f);
@@ -124,19 +131,27 @@ void add_wall_tables(const formats::Bundle& bundle, render::EmbeddedMesh& mesh) 
   }
   const double period = 0.25 * edges / static_cast<double>(std::max<std::size_t>(bundle.faces.face_count(), 1));
   mesh.face_detail_repeat.assign(8 * tets, 1.0f);
+  // Relief on inside faces only, and only with a clearance (bundles from schema 1.0
+  // have none: their walls stay flat).
+  mesh.face_relief.assign(4 * tets, 0.0f);
+  if (!w.face_clearance.empty()) mesh.detail_height = w.detail_height;
   for (TetIndex t = 0; t < tets; ++t) {
     for (int k = 0; k < 4; ++k) {
+      const std::size_t slot = 4 * static_cast<std::size_t>(t) + static_cast<std::size_t>(k);
       const FaceIndex f = bundle.faces.tet_faces(k, t);
       const auto& n = bundle.faces.nodes;
       const Matrix3Xd& x = bundle.cage.rest_positions;
-      float* repeat = &mesh.face_detail_repeat[2 * (4 * static_cast<std::size_t>(t) + static_cast<std::size_t>(k))];
+      float* repeat = &mesh.face_detail_repeat[2 * slot];
       repeat[0] = static_cast<float>((x.col(n(1, f)) - x.col(n(0, f))).norm() / period);
       repeat[1] = static_cast<float>((x.col(n(2, f)) - x.col(n(0, f))).norm() / period);
+      if (!w.face_clearance.empty() && w.face_class[f] == formats::FaceClass::Inside) {
+        mesh.face_relief[slot] = static_cast<float>(scale * std::min(w.face_clearance[f], kReliefOfPeriod * period));
+      }
     }
   }
 }
 
-render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::ImplicitIntegrator& body) {
+render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::ImplicitIntegrator& body, double scale) {
   const formats::Embedding& e = bundle.embedding;
   const Matrix3Xd& rest = body.rest_positions();
   const Matrix4Xu& tets = body.elasticity().tets();
@@ -173,7 +188,7 @@ render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::Imp
     const Mat3 inverse = edges.inverse();
     mesh.rest_inverse.insert(mesh.rest_inverse.end(), inverse.data(), inverse.data() + 9);
   }
-  add_wall_tables(bundle, mesh);
+  add_wall_tables(bundle, scale, mesh);
   return mesh;
 }
 
@@ -183,7 +198,7 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   Eigen::AlignedBox3d bounds;
   for (std::size_t b = 0; b < world.bodies().size(); ++b) {
     const sim::ImplicitIntegrator& body = world.bodies()[b].integrator();
-    render::EmbeddedMesh mesh = embedded_mesh(assets[b].bundle, body);
+    render::EmbeddedMesh mesh = embedded_mesh(assets[b].bundle, body, assets[b].scale);
     if (assets[b].color) mesh.color = assets[b].color->cast<float>();
     if (assets[b].interior_color) mesh.interior_color = assets[b].interior_color->cast<float>();
     m_bodies.push_back(renderer.add_body(mesh));

@@ -16,8 +16,9 @@ namespace fissure::player {
 
 /// Body `body`'s instances as the renderer takes them, with smooth rest normals
 /// computed from the render mesh placed by the world's rest cage (so in world axes,
-/// whatever the object's rotation and scale).
-render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::ImplicitIntegrator& body);
+/// whatever the object's rotation and scale). `scale`: the scene's uniform scale of the
+/// object (the walls' relief is in world metres).
+render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::ImplicitIntegrator& body, double scale);
 
 class SceneView {
  public:

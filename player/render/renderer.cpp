@@ -59,17 +59,16 @@ void set_sampling(GLuint texture, GLenum min_filter, GLenum wrap) {
   glTextureParameteri(texture, GL_TEXTURE_WRAP_T, static_cast<GLint>(wrap));
 }
 
-/// The walls' detail normal map: tileable, so it repeats; mipmapped, so far walls do
-/// not shimmer.
-GLuint upload_detail(const EmbeddedMesh& mesh) {
-  const int res = mesh.detail_resolution;
-  if (res <= 0 || mesh.detail_normal.size() != 3 * static_cast<std::size_t>(res) * res) return 0;
+/// One of the walls' detail maps (normal: 3 channels, height: 1): tileable, so it
+/// repeats; mipmapped, so far walls do not shimmer and coarse relief does not alias.
+GLuint upload_detail(int res, const std::vector<std::uint8_t>& texels, int channels) {
+  if (res <= 0 || texels.size() != static_cast<std::size_t>(channels) * res * res) return 0;
   GLuint texture = 0;
   glCreateTextures(GL_TEXTURE_2D, 1, &texture);
   const int levels = 1 + static_cast<int>(std::floor(std::log2(static_cast<double>(res))));
-  glTextureStorage2D(texture, levels, GL_RGB8, res, res);
+  glTextureStorage2D(texture, levels, channels == 3 ? GL_RGB8 : GL_R8, res, res);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTextureSubImage2D(texture, 0, 0, 0, res, res, GL_RGB, GL_UNSIGNED_BYTE, mesh.detail_normal.data());
+  glTextureSubImage2D(texture, 0, 0, 0, res, res, channels == 3 ? GL_RGB : GL_RED, GL_UNSIGNED_BYTE, texels.data());
   glGenerateTextureMipmap(texture);
   set_sampling(texture, GL_LINEAR_MIPMAP_LINEAR, GL_REPEAT);
   return texture;
@@ -85,8 +84,10 @@ struct EmbeddedBody {
   std::uint64_t topology_version = ~std::uint64_t{0};
   bool posed = false, visible = true;
   // Walls: the static per-slot tables and tiles, and the slots fracture opened.
-  StorageBuffer face_tile, face_uv, walls, detail_repeat, fragments;
+  StorageBuffer face_tile, face_uv, walls, detail_repeat, fragments, relief;
   GLuint detail = 0;  ///< GL_TEXTURE_2D (RGB8, repeating, mipmapped), 0 without a detail material
+  GLuint height = 0;  ///< GL_TEXTURE_2D (R8, repeating, mipmapped), 0 without relief
+  int detail_resolution = 0;
   std::vector<std::int32_t> face_tile_host;
   GLsizei wall_count = 0;
   GLuint tiles = 0;  ///< GL_TEXTURE_2D_ARRAY, 0 without tiles
@@ -94,6 +95,7 @@ struct EmbeddedBody {
   ~EmbeddedBody() {
     if (tiles != 0) glDeleteTextures(1, &tiles);
     if (detail != 0) glDeleteTextures(1, &detail);
+    if (height != 0) glDeleteTextures(1, &height);
   }
 };
 
@@ -206,9 +208,10 @@ struct Renderer::Impl {
   GlName framebuffer{GlName::Kind::Framebuffer};
   GlName color{GlName::Kind::Renderbuffer};
   GlName depth{GlName::Kind::Renderbuffer};
-  ShaderProgram embedded, plain, wall, cage;
+  ShaderProgram embedded, plain, wall, wall_tessellated, cage;
   GlName empty_vertex_array{GlName::Kind::VertexArray};  ///< walls read everything from storage buffers
   bool walls_visible = true, normal_mapping = true, fragment_colors = false, cage_visible = false;
+  float tessellation_level = 1.0f, pixels_per_segment = 8.0f;  ///< level ≤ 1: walls drawn flat
   std::vector<std::unique_ptr<EmbeddedBody>> bodies;
   std::vector<std::unique_ptr<PlainBody>> plains;
   Camera camera;
@@ -226,6 +229,9 @@ struct Renderer::Impl {
                embedded_shader("lighting.frag.glsl")}),
         wall({embedded_shader("wall.vert.glsl"), embedded_shader("wall.frag.glsl"),
               embedded_shader("lighting.frag.glsl")}),
+        wall_tessellated({embedded_shader("wall.vert.glsl"), embedded_shader("wall.tesc.glsl"),
+                          embedded_shader("wall.tese.glsl"), embedded_shader("wall.frag.glsl"),
+                          embedded_shader("lighting.frag.glsl")}),
         cage({embedded_shader("cage.vert.glsl"), embedded_shader("cage.frag.glsl")}) {
     glNamedRenderbufferStorage(color.get(), GL_RGBA8, w, h);
     glNamedRenderbufferStorage(depth.get(), GL_DEPTH_COMPONENT24, w, h);
@@ -260,26 +266,40 @@ struct Renderer::Impl {
     }
   }
 
+  /// The walls fracture opened: one triangle per wall, or one patch per wall when
+  /// tessellation is on (wall.tesc.glsl splits only the walls that have relief).
   void draw_walls(const Mat4f& view_projection) {
     if (!walls_visible) return;
-    set_common_uniforms(wall, view_projection);
-    glUniform1i(wall.uniform("tiles"), 0);
-    glUniform1i(wall.uniform("detail_normal"), 1);
+    const bool tessellate = tessellation_level > 1.0f;
+    const ShaderProgram& program = tessellate ? wall_tessellated : wall;
+    set_common_uniforms(program, view_projection);
+    glUniform1i(program.uniform("tiles"), 0);
+    glUniform1i(program.uniform("detail_normal"), 1);
+    if (tessellate) {
+      glUniform1i(program.uniform("detail_height"), 2);
+      glUniform1f(program.uniform("max_level"), tessellation_level);
+      glUniform1f(program.uniform("pixels_per_segment"), pixels_per_segment);
+      glUniform2f(program.uniform("viewport"), static_cast<float>(width), static_cast<float>(height));
+      glPatchParameteri(GL_PATCH_VERTICES, 3);
+    }
     glBindVertexArray(empty_vertex_array.get());
     for (const auto& body : bodies) {
       if (!body->visible || !body->posed || body->wall_count == 0) continue;
-      glUniform3fv(wall.uniform("base_color"), 1, body->interior_color.data());
-      glUniform2i(wall.uniform("tile_layout"), body->atlas.resolution, body->atlas.cells);
+      glUniform3fv(program.uniform("base_color"), 1, body->interior_color.data());
+      glUniform2i(program.uniform("tile_layout"), body->atlas.resolution, body->atlas.cells);
+      glUniform1i(program.uniform("detail_resolution"), body->detail_resolution);
       glBindTextureUnit(0, body->tiles);
       glBindTextureUnit(1, body->detail);
-      glUniform1i(wall.uniform("normal_mapping"), normal_mapping && body->detail != 0 ? 1 : 0);
+      glBindTextureUnit(2, body->height);
+      glUniform1i(program.uniform("normal_mapping"), normal_mapping && body->detail != 0 ? 1 : 0);
       body->detail_repeat.bind(6);
+      body->relief.bind(8);
       body->nodes.bind(0);
       body->tets.bind(1);
       body->walls.bind(3);
       body->face_tile.bind(4);
       body->face_uv.bind(5);
-      glDrawArrays(GL_TRIANGLES, 0, 3 * body->wall_count);
+      glDrawArrays(tessellate ? GL_PATCHES : GL_TRIANGLES, 0, 3 * body->wall_count);
     }
   }
 
@@ -371,10 +391,16 @@ std::size_t Renderer::add_body(const EmbeddedMesh& mesh) {
   m_impl->pending_upload += body->face_tile.upload(mesh.face_tile.data(), mesh.face_tile.size() * sizeof(std::int32_t));
   m_impl->pending_upload += body->face_uv.upload(mesh.face_uv.data(), mesh.face_uv.size() * sizeof(float));
   body->tiles = upload_tiles(mesh, body->atlas);
-  body->detail = upload_detail(mesh);
+  body->detail = upload_detail(mesh.detail_resolution, mesh.detail_normal, 3);
   std::vector<float> repeat = mesh.face_detail_repeat;
   repeat.resize(2 * mesh.face_tile.size(), 1.0f);
   m_impl->pending_upload += body->detail_repeat.upload(repeat.data(), repeat.size() * sizeof(float)) + mesh.detail_normal.size();
+  // Relief needs the height map; without one every wall is drawn flat.
+  body->height = upload_detail(mesh.detail_resolution, mesh.detail_height, 1);
+  body->detail_resolution = mesh.detail_resolution;
+  std::vector<float> relief = body->height != 0 ? mesh.face_relief : std::vector<float>{};
+  relief.resize(mesh.face_tile.size(), 0.0f);
+  m_impl->pending_upload += body->relief.upload(relief.data(), relief.size() * sizeof(float)) + mesh.detail_height.size();
   m_impl->pending_upload += mesh.tiles.size();
   m_impl->bodies.push_back(std::move(body));
   return m_impl->bodies.size() - 1;
@@ -435,6 +461,12 @@ void Renderer::set_body_visible(std::size_t body, bool visible) { m_impl->bodies
 void Renderer::set_walls_visible(bool visible) { m_impl->walls_visible = visible; }
 void Renderer::set_normal_mapping(bool enabled) { m_impl->normal_mapping = enabled; }
 void Renderer::set_fragment_colors(bool enabled) { m_impl->fragment_colors = enabled; }
+void Renderer::set_tessellation(float max_level, float pixels_per_segment) {
+  GLint limit = 64;  // the least GL 4.5 allows
+  glGetIntegerv(GL_MAX_TESS_GEN_LEVEL, &limit);
+  m_impl->tessellation_level = std::clamp(max_level, 1.0f, static_cast<float>(limit));
+  m_impl->pixels_per_segment = std::max(pixels_per_segment, 0.5f);
+}
 void Renderer::set_cage_visible(bool visible) { m_impl->cage_visible = visible; }
 void Renderer::set_camera(const Camera& camera) { m_impl->camera = camera; }
 void Renderer::set_light(const Light& light) { m_impl->light = light; }

@@ -71,6 +71,12 @@ struct EmbeddedMesh {
   int detail_resolution = 0;
   std::vector<std::uint8_t> detail_normal;
   std::vector<float> face_detail_repeat;  ///< 2 per slot
+  /// Tessellated relief (thesis V.C): the detail's tileable height map (detail_resolution²,
+  /// 127.5 = the face's plane), and per slot the most it may raise or sink the face [m]
+  /// (0: drawn flat; at most the bake's clearance, so relief stays inside the solid).
+  /// Empty: no relief.
+  std::vector<std::uint8_t> detail_height;
+  std::vector<float> face_relief;
 };
 
 /// One body's cage as it is this frame.
@@ -122,6 +128,11 @@ class Renderer {
   /// normal-mapped with the detail material (on by default).
   void set_walls_visible(bool visible);
   void set_normal_mapping(bool enabled);
+  /// Tessellated relief on the walls inside the solid (thesis V.C): each wall's edges are
+  /// split into about one segment per `pixels_per_segment` on screen, at most `max_level`
+  /// (clamped to the GPU's limit); `max_level` ≤ 1 turns it off (walls flat, normal
+  /// mapping alone). Off by default.
+  void set_tessellation(float max_level, float pixels_per_segment = 8.0f);
   /// Debug view: each fragment (connected piece) of a body in its own colour.
   void set_fragment_colors(bool enabled);
   /// Debug view: the cages' edges over the image.

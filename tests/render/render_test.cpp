@@ -169,13 +169,16 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
   const auto context = render::create_headless_context(render::Backend::OSMesa);
   render::Renderer renderer(kSize, kSize);
   const auto world = s.world();
-  renderer.add_body(player::embedded_mesh(bundle, world->bodies()[0].integrator()));
+  renderer.add_body(player::embedded_mesh(bundle, world->bodies()[0].integrator(), 1.0));
   renderer.set_pose(0, {positions, tet_nodes, faces, {}, 1});
   render::Camera camera;
   camera.eye = Vec3f(3.0f, 0.5f, 0.5f);
   camera.target = Vec3f(0.5f, 0.5f, 0.5f);
   renderer.set_camera(camera);
-  formats::Image walls{kSize, kSize, {}}, open{kSize, kSize, {}}, flat{kSize, kSize, {}};
+  formats::Image walls{kSize, kSize, {}}, open{kSize, kSize, {}}, flat{kSize, kSize, {}}, relief{kSize, kSize, {}};
+  renderer.set_tessellation(16.0f, 2.0f);
+  renderer.render(relief.rgba);
+  renderer.set_tessellation(1.0f);
   renderer.render(walls.rgba);
   renderer.set_normal_mapping(false);
   renderer.render(flat.rgba);
@@ -190,7 +193,7 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
   // there, so the cross-section is the foreground of the image without walls.
   const auto at = [&](const formats::Image& image, int px, int py) { return &image.rgba[4 * (py * kSize + px)]; };
   const auto foreground = [&](int px, int py) { return !std::equal(at(open, px, py), at(open, px, py) + 3, at(open, 0, 0)); };
-  std::size_t wall = 0, section = 0, stray = 0, flat_wall = 0, relit = 0;
+  std::size_t wall = 0, section = 0, stray = 0, flat_wall = 0, relit = 0, relief_wall = 0, relief_stray = 0;
   for (int py = 0; py < kSize; ++py) {
     for (int px = 0; px < kSize; ++px) {
       const bool is_wall = !std::equal(at(walls, px, py), at(walls, px, py) + 3, at(open, px, py));
@@ -208,6 +211,9 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
         }
       }
       stray += is_wall && !near_section ? 1 : 0;
+      const bool is_relief_wall = !std::equal(at(relief, px, py), at(relief, px, py) + 3, at(open, px, py));
+      relief_wall += is_relief_wall ? 1 : 0;
+      relief_stray += is_relief_wall && !near_section ? 1 : 0;
     }
   }
   std::printf("walls: %zu wall pixels over a cross-section of %zu, %zu outside it\n", wall, section, stray);
@@ -216,6 +222,80 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
   EXPECT_GE(wall, section - section / 50);          // and over (nearly) all of the section
   EXPECT_EQ(flat_wall, wall);
   EXPECT_GT(relit, wall / 2) << "the detail normals should change most wall pixels' shading";
+  // Tessellated relief moves the walls along their normals, faded to nothing at their
+  // edges: seen face-on they still cover the section, and nothing beside it.
+  EXPECT_EQ(relief_stray, 0u);
+  EXPECT_GE(relief_wall, section - section / 50);
+}
+
+/// The sphere in a finer cage (6³ cubes), where many faces lie wholly inside it.
+struct FineSphere {
+  TetMesh cage = testing::grid_cage(Vec3(0, 0, 0), Vec3(1, 1, 1), 6, 6, 6);
+  formats::Bundle bundle;
+  std::unique_ptr<sim::World> world;
+  FineSphere() {
+    bake::BakeOptions options;
+    options.collision = false;
+    bundle = bake::embed(sphere().mesh, cage, options, "icosphere", "grid");
+    sim::WorldSettings settings;
+    settings.collisions = false;
+    world = std::make_unique<sim::World>(std::vector<sim::BodyDescription>{testing::describe("sphere", cage, sim::Material{})},
+                                         sim::Environment{}, std::vector<sim::Projectile>{}, settings);
+  }
+};
+
+/// Every inside-the-solid face of the intact fine sphere opened as a wall, relief
+/// `factor` times the bake's clearance, tessellated at `level` (1: off): the image, from
+/// the test's usual oblique view.
+formats::Image interior_walls_image(double factor, float level, bool walls = true) {
+  static const FineSphere s;
+  render::EmbeddedMesh mesh = player::embedded_mesh(s.bundle, s.world->bodies()[0].integrator(), 1.0);
+  std::vector<std::uint8_t> faces(4 * s.cage.tet_count(), 0);
+  for (TetIndex t = 0; t < s.cage.tet_count(); ++t) {
+    for (int k = 0; k < 4; ++k) {
+      const FaceIndex f = s.bundle.faces.tet_faces(k, t);
+      if (s.bundle.walls->face_class[f] != formats::FaceClass::Inside) continue;
+      faces[4 * t + k] = 2;
+      mesh.face_relief[4 * t + k] = static_cast<float>(factor * s.bundle.walls->face_clearance[f]);
+    }
+  }
+  const Matrix3Xd& x = s.cage.rest_positions;
+  const std::vector<float> positions(x.data(), x.data() + x.size());
+  const std::vector<std::uint32_t> tets(s.cage.tets.data(), s.cage.tets.data() + s.cage.tets.size());
+  const auto context = render::create_headless_context(render::Backend::OSMesa);
+  render::Renderer renderer(kSize, kSize);
+  renderer.add_body(mesh);
+  renderer.set_pose(0, {positions, tets, faces, {}, 1});
+  renderer.set_walls_visible(walls);
+  renderer.set_tessellation(level, 3.0f);
+  const Eigen::AlignedBox3f box(Eigen::Vector3f::Constant(0.05f), Eigen::Vector3f::Constant(0.95f));
+  renderer.set_camera(render::frame_box(box, render::Vec3f(-0.55f, 0.75f, -0.38f), render::Vec3f::UnitZ(), 35.0f, 1.0f));
+  formats::Image image{kSize, kSize, {}};
+  renderer.render(image.rgba);
+  if (const char* keep = std::getenv("FISSURE_TEST_IMAGE_DIR"); keep != nullptr) {
+    formats::write_png(std::filesystem::path(keep) / ("relief-" + std::to_string(factor) + "-" + std::to_string(level) + ".png"), image);
+  }
+  return image;
+}
+
+std::size_t differing_pixels(const formats::Image& a, const formats::Image& b) {
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < a.rgba.size(); i += 4) count += !std::equal(&a.rgba[i], &a.rgba[i] + 3, &b.rgba[i]);
+  return count;
+}
+
+// Relief raises and sinks the interior walls by at most the bake's clearance, so walls
+// opened inside an intact solid stay hidden behind its outer surface: no pixel changes.
+// Far more relief does poke through, so the check can see a violation. (It takes far
+// more: a face's clearance is its least depth, usually at a corner, where the relief
+// fades to nothing.)
+TEST(Render, TessellatedReliefWithinTheClearanceNeverPokesThroughTheOutside) {
+  const formats::Image no_walls = interior_walls_image(1.0, 12.0f, false);
+  EXPECT_EQ(differing_pixels(interior_walls_image(0.0, 1.0f), no_walls), 0u);
+  EXPECT_EQ(differing_pixels(interior_walls_image(1.0, 12.0f), no_walls), 0u);
+  const std::size_t poking = differing_pixels(interior_walls_image(40.0, 12.0f), no_walls);
+  std::printf("relief at 40× the clearance: %zu pixels poke through\n", poking);
+  EXPECT_GT(poking, 100u) << "relief far beyond the clearance should show through the surface";
 }
 
 // Golden images: the renderer against itself over time, so a change that alters what a
