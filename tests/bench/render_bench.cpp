@@ -6,6 +6,8 @@
 //                             [--subdivisions K] [--shared DIR]
 //   --subdivisions K  also the bunny split 1→4 up to K times (default 2: 5k, 20k, 80k triangles)
 //   --shared DIR      the shared data folder, for the 10,024-tet cage (optional)
+// Then the cost of tessellated relief against its level cap (every tet apart, every
+// face open: the bunny-5k in the 987-tet cage fully shattered).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -108,6 +110,56 @@ Row measure(const SurfaceMesh& mesh, const TetMesh& cage, const Options& o, rend
   return row;
 }
 
+/// The cost of tessellated relief against its level cap, in the worst case: every tet
+/// its own fragment, shrunk to 80% about its centroid, every face open, so every wall
+/// the bake knows is on screen (inside faces with relief, crossing faces flat).
+void measure_tessellation(const SurfaceMesh& mesh, const TetMesh& cage, const Options& o) {
+  bake::BakeOptions bake_options;
+  bake_options.collision = false;
+  const formats::Bundle bundle = bake::embed(mesh, cage, bake_options, "mesh", "cage");
+  sim::WorldSettings settings;
+  settings.collisions = false;
+  const sim::World world({testing::describe("body", cage, sim::Material{})}, {}, {}, settings);
+  render::Renderer renderer(o.width, o.height);
+  renderer.add_body(player::embedded_mesh(bundle, world.bodies()[0].integrator(), 1.0));
+  std::vector<float> positions;
+  std::vector<std::uint32_t> tets;
+  Eigen::AlignedBox3f box;
+  for (TetIndex t = 0; t < cage.tet_count(); ++t) {
+    Vec3 centre = Vec3::Zero();
+    for (int i = 0; i < 4; ++i) centre += 0.25 * cage.rest_positions.col(cage.tets(i, t));
+    for (int i = 0; i < 4; ++i) {
+      const Vec3 x = centre + 0.8 * (cage.rest_positions.col(cage.tets(i, t)) - centre);
+      positions.insert(positions.end(), {float(x.x()), float(x.y()), float(x.z())});
+      tets.push_back(4 * t + static_cast<std::uint32_t>(i));
+      box.extend(x.cast<float>());
+    }
+  }
+  const std::vector<std::uint8_t> faces(4 * cage.tet_count(), 2);
+  renderer.set_pose(0, {positions, tets, faces, {}, 1});
+  renderer.set_camera(render::frame_box(box, render::Vec3f(-0.55f, 0.75f, -0.38f), render::Vec3f::UnitZ(), 30.0f,
+                                        static_cast<float>(o.width) / static_cast<float>(o.height)));
+  std::size_t inside = 0;
+  for (const formats::FaceClass c : bundle.walls->face_class) inside += c == formats::FaceClass::Inside ? 1 : 0;
+  std::printf("\nTessellated relief, every tet apart and every face open (%zu tets, %zu faces inside the solid):\n\n",
+              cage.tet_count(), inside);
+  std::printf("| level cap | draw ms | ÷ flat walls |\n|---|---|---|\n");
+  double flat = 0;
+  std::vector<std::uint8_t> pixels;
+  for (const float level : {1.0f, 2.0f, 4.0f, 8.0f, 16.0f, 32.0f, 64.0f}) {
+    renderer.set_tessellation(level);
+    std::vector<double> draws;
+    for (int f = 0; f <= o.frames; ++f) {
+      renderer.render(pixels);
+      if (f > 0) draws.push_back(renderer.last_stats().draw_ms);
+    }
+    const double ms = median(draws);
+    if (level == 1.0f) flat = ms;
+    std::printf("| %s | %.1f | %.2f× |\n", level == 1.0f ? "off" : std::to_string(static_cast<int>(level)).c_str(), ms, ms / flat);
+    std::fflush(stdout);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -135,6 +187,7 @@ int main(int argc, char** argv) {
         std::fflush(stdout);
       }
     }
+    measure_tessellation(meshes.front(), cages.front().second, o);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
