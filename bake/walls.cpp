@@ -213,7 +213,8 @@ double triangle_clearance(const SurfaceDistance& surface, const Vec3& a, const V
   for (int splits = 0;; ++splits) {
     const Piece p = pieces.top();  // the lowest bound: the triangle's least distance is at least this
     const double nearest = std::min({p.distance[0], p.distance[1], p.distance[2]});
-    if (nearest - p.bound <= tolerance * nearest || splits == max_splits) return std::max(0.0, p.bound);
+    if (nearest <= 0.0) return 0.0;  // the face touches the surface: no bound above 0 exists
+    if (nearest - p.bound <= tolerance * nearest || splits >= max_splits) return std::max(0.0, p.bound);
     pieces.pop();
     const auto& [x0, x1, x2] = p.corner;
     const auto& [d0, d1, d2] = p.distance;

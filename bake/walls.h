@@ -42,7 +42,8 @@ formats::Walls bake_walls(const formats::Bundle& bundle, const FaceRegions& regi
 /// surface (0 when none is positive), within `tolerance` of the true least distance
 /// (relative) unless `max_splits` runs out first. Distance to a surface changes no
 /// faster than position, so on a piece of the triangle it is at least the least
-/// distance at the piece's corners less the piece's circumradius; branch and bound splits
+/// distance at the piece's corners less the smaller of the piece's circumradius and its
+/// longest edge (slivers); branch and bound splits
 /// the piece with the lowest such bound in four until that bound is within tolerance of
 /// its corners' distance. Only the region nearest the surface is refined: tens of
 /// nearest-point queries a face, where a uniform lattice as tight would take thousands

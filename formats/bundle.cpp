@@ -43,7 +43,10 @@ void write_walls(hid_t file, const Walls& w) {
   write_vector(group.id(), "face_class", ElementType::U8, w.face_class);
   write_vector(group.id(), "face_tile", ElementType::U32, w.face_tile);
   write_vector(group.id(), "face_inside_area", ElementType::F64, w.face_inside_area);
-  if (!w.face_clearance.empty()) write_vector(group.id(), "face_clearance", ElementType::F64, w.face_clearance);
+  // Schema 1.1 readers require it: walls made without one get no relief (all zero).
+  std::vector<double> clearance = w.face_clearance;
+  clearance.resize(w.face_class.size(), 0.0);
+  write_vector(group.id(), "face_clearance", ElementType::F64, clearance);
   const auto tiles = static_cast<hsize_t>(w.tile_count());
   h5::write_dataset(group.id(), "sdf", ElementType::U8, {tiles, w.resolution, w.resolution}, w.sdf.data());
   h5::write_dataset(group.id(), "depth", ElementType::U8, {tiles, w.depth_resolution, w.depth_resolution}, w.depth.data());
@@ -375,7 +378,7 @@ Bundle read_bundle_unchecked_context(const std::filesystem::path& path) {
     }
     w.face_tile = reader.read_vector<Index>(g.id(), where, "face_tile", ElementType::U32, faces);
     w.face_inside_area = reader.read_vector<double>(g.id(), where, "face_inside_area", ElementType::F64, faces);
-    if (h5::has_link(g.id(), "face_clearance")) {  // schema 1.1
+    if (b.metadata.schema_minor >= 1 || h5::has_link(g.id(), "face_clearance")) {  // schema 1.1
       w.face_clearance = reader.read_vector<double>(g.id(), where, "face_clearance", ElementType::F64, faces);
     }
     const hsize_t tiles = reader.expect_shape(g.id(), where, "sdf", {w.resolution, w.resolution});

@@ -1,8 +1,8 @@
 #version 450 core
 // Tessellated walls (thesis V.C): a face inside the solid that has relief is split the
-// finer the more of the screen its edges cover (fractional levels, so detail grows
-// smoothly as the camera nears), capped at max_level; faces without relief (crossing
-// faces, or none allowed) stay one triangle and cost what the untessellated walls do.
+// finer the more of the screen it covers (fractional levels, so detail grows smoothly as
+// the camera nears), capped at max_level; faces without relief (crossing faces, or none
+// allowed) stay one triangle and cost what the untessellated walls do.
 
 layout(vertices = 3) out;
 
@@ -30,13 +30,11 @@ uniform vec2 viewport;            // [pixels]
 uniform float pixels_per_segment; // the on-screen length one segment aims for
 uniform int detail_resolution;    // texels per side of the detail map
 
-/// An edge's level from its on-screen length. An edge crossing the eye's plane gets
-/// the cap: its length on screen is unbounded. Symmetric in (a, b), so the two patches
-/// that share an edge split it alike.
-float edge_level(vec4 a, vec4 b) {
-  if (a.w <= 0.0 || b.w <= 0.0) return max_level;
-  vec2 on_screen = (a.xy / a.w - b.xy / b.w) * 0.5 * viewport;
-  return clamp(length(on_screen) / pixels_per_segment, 1.0, max_level);
+/// An edge's on-screen length in pixels; the cap where it crosses the eye's plane (its
+/// length on screen is unbounded there).
+float screen_length(vec4 a, vec4 b) {
+  if (a.w <= 0.0 || b.w <= 0.0) return max_level * pixels_per_segment;
+  return length((a.xy / a.w - b.xy / b.w) * 0.5 * viewport);
 }
 
 void main() {
@@ -50,17 +48,20 @@ void main() {
   tc_tangent = v_tangent[0];
   tc_bitangent = v_bitangent[0];
   tc_relief = v_relief[0];
-  // Outer level i is the edge facing corner i (the one where gl_TessCoord[i] = 0).
-  vec3 outer = vec3(1.0);
+  // The outer levels stay 1: relief fades to nothing at the edges, so splitting them
+  // adds nothing, and a split edge beside an unsplit neighbour (a crossing face, drawn
+  // flat) would leave T-junctions that rounding can open into pinholes. The inner level
+  // follows the longest edge on screen.
+  gl_TessLevelOuter[0] = 1.0;
+  gl_TessLevelOuter[1] = 1.0;
+  gl_TessLevelOuter[2] = 1.0;
+  float inner = 1.0;
   if (v_relief[0] > 0.0) {
-    outer = vec3(edge_level(gl_in[1].gl_Position, gl_in[2].gl_Position),
-                 edge_level(gl_in[2].gl_Position, gl_in[0].gl_Position),
-                 edge_level(gl_in[0].gl_Position, gl_in[1].gl_Position));
+    float longest = max(screen_length(gl_in[0].gl_Position, gl_in[1].gl_Position),
+                        max(screen_length(gl_in[1].gl_Position, gl_in[2].gl_Position),
+                            screen_length(gl_in[2].gl_Position, gl_in[0].gl_Position)));
+    inner = clamp(longest / pixels_per_segment, 1.0, max_level);
   }
-  gl_TessLevelOuter[0] = outer.x;
-  gl_TessLevelOuter[1] = outer.y;
-  gl_TessLevelOuter[2] = outer.z;
-  float inner = max(outer.x, max(outer.y, outer.z));
   gl_TessLevelInner[0] = inner;
   // Sample the height no finer than the mesh can show: a segment spans this many
   // texels of the detail map, so its mip level is their log2 (no aliasing or popping).

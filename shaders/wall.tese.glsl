@@ -3,9 +3,11 @@
 // along the face's normal by the detail height, scaled by the face's relief: at most
 // the bake's clearance (walls/face_clearance), the distance below the outer surface
 // every point of the face keeps, so the interior never pokes through the outside,
-// which the thesis wanted and could not bound. The relief fades to nothing at the
-// face's edges: walls meeting there (other tets' faces, crossing faces drawn flat)
-// share their edges exactly, so no crack opens between them at any level.
+// which the thesis wanted and could not bound (the bound is the rest shape's: a tet
+// squashed hard near the surface can bring the outside closer than it). The relief
+// fades to nothing at the face's edges, which stay unsplit (wall.tesc.glsl): walls
+// meeting there (other tets' faces, crossing faces drawn flat) share their edges
+// exactly, so no crack opens between them at any level.
 
 layout(triangles, fractional_odd_spacing, ccw) in;
 

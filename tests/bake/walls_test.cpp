@@ -11,6 +11,7 @@
 #include "common/error.h"
 #include "formats/bundle_checks.h"
 #include "tests/support/procedural.h"
+#include "tests/support/temp_dir.h"
 
 namespace fissure::bake {
 namespace {
@@ -217,6 +218,15 @@ TEST(Walls, InteriorFaceClearanceIsWithinTenPercentBelowTheExactDistance) {
   }
   EXPECT_GT(inside, 20u);
   EXPECT_TRUE(formats::verify_bundle(b).passed());
+}
+
+TEST(Walls, ClearanceSurvivesTheBundleFile) {
+  const formats::Bundle baked = bake_plane_case(8);
+  const testing::TempDir dir;
+  formats::write_bundle(dir / "slab.h5", baked);
+  const formats::Bundle read = formats::read_bundle(dir / "slab.h5");
+  ASSERT_TRUE(read.walls.has_value());
+  EXPECT_EQ(read.walls->face_clearance, baked.walls->face_clearance);
 }
 
 TEST(Walls, VerifyRejectsAClearanceOnAFaceThatIsNotInside) {
