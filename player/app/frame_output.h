@@ -28,8 +28,10 @@ struct FrameOptions {
   bool fragment_colors = false;  ///< debug view: a colour per fragment
   bool cage = false;             ///< debug view: the cage's edges
   /// Tessellated relief on interior walls: the most segments per wall edge (≤ 1: off).
-  /// 8: at about one segment per 8 pixels, few walls ask for more (BENCHMARKS.md).
-  float tessellation = 8.0f;
+  /// Off by default: within the bake's clearance the relief changes few pixels at the
+  /// distances scenes are framed from (22 of 540,000 on the fully shattered bunny) for
+  /// up to 2× the wall cost (BENCHMARKS.md); 8 is enough close up.
+  float tessellation = 0.0f;
   [[nodiscard]] bool wanted() const { return !frames.empty() || !video.empty(); }
 };
 

@@ -38,8 +38,8 @@ int main(int argc, char** argv) {
   run->add_flag("--no-walls", no_walls, "Do not draw the walls fracture opens (the mesh alone, cracks show through)");
   run->add_flag("--no-normal-mapping", no_normal_mapping, "Draw the walls flat, without the detail normals");
   run->add_option("--tessellation", options.images.tessellation,
-                  "Relief on the walls inside the solid: the most segments per wall edge (0 or 1: off, walls flat "
-                  "with normal mapping)")
+                  "Relief on the walls inside the solid: the most segments per wall edge, e.g. 8 for close-ups "
+                  "(0 or 1: off, walls flat with normal mapping)")
       ->check(CLI::Range(0.0f, 64.0f))
       ->capture_default_str();
   run->add_flag("--fragment-colors", options.images.fragment_colors, "Debug view: each fragment in its own colour");
