@@ -128,8 +128,9 @@ class Renderer {
   /// normal-mapped with the detail material (on by default).
   void set_walls_visible(bool visible);
   void set_normal_mapping(bool enabled);
-  /// Tessellated relief on the walls inside the solid (thesis V.C): each wall's edges are
-  /// split into about one segment per `pixels_per_segment` on screen, at most `max_level`
+  /// Tessellated relief on the walls inside the solid (thesis V.C): each wall is split
+  /// inside (its edges stay whole) into about one segment per `pixels_per_segment` of its
+  /// longest edge on screen, at most `max_level`
   /// (clamped to the GPU's limit); `max_level` ≤ 1 turns it off (walls flat, normal
   /// mapping alone). Off by default.
   void set_tessellation(float max_level, float pixels_per_segment = 8.0f);
