@@ -7,8 +7,12 @@ in vec3 v_normal;
 in vec3 v_position;
 flat in uint v_fragment;
 
+layout(std430, binding = 10) readonly buffer Replicas { uint replicas[]; };  // per instance
+
 uniform vec3 base_color;
 uniform bool fragment_colors;
+uniform bool replication_colors;
+uniform vec3 replication_palette[5];  // renderer.h: replication_color()
 
 out vec4 fragment_color;
 
@@ -30,5 +34,8 @@ void main() {
     float hue = fract(0.61803399 * float(v_fragment) + 0.1);
     color = clamp(abs(fract(hue + vec3(0.0, 2.0 / 3.0, 1.0 / 3.0)) * 6.0 - 3.0) - 1.0, 0.0, 1.0) * 0.7 + 0.2;
   }
+  // Thesis Fig. 24: each triangle by how many tets it is drawn in. The draw's
+  // primitives are the instances, in order.
+  if (replication_colors) color = replication_palette[clamp(replicas[gl_PrimitiveID], 1u, 5u) - 1u];
   fragment_color = vec4(shade(v_normal, v_position, color), 1.0);
 }

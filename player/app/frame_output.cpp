@@ -56,6 +56,8 @@ FrameOutput::FrameOutput(const FrameOptions& options, const LoadedScene& scene) 
   m_renderer->set_normal_mapping(options.normal_mapping);
   m_renderer->set_fragment_colors(options.fragment_colors);
   m_renderer->set_cage_visible(options.cage);
+  m_renderer->set_spheres_visible(options.spheres);
+  m_renderer->set_replication_colors(options.replication_colors);
   m_renderer->set_tessellation(options.tessellation);
   m_view = std::make_unique<SceneView>(scene.world, scene.assets, *m_renderer, scene.camera);
 }

@@ -27,6 +27,8 @@ struct FrameOptions {
   bool normal_mapping = true;    ///< detail normals on the walls
   bool fragment_colors = false;  ///< debug view: a colour per fragment
   bool cage = false;             ///< debug view: the cage's edges
+  bool spheres = false;          ///< debug view: the collision spheres in place of the surface
+  bool replication_colors = false;  ///< debug view: triangles by how many tets they are drawn in
   /// Tessellated relief on interior walls: the most segments per wall edge (≤ 1: off).
   /// Off by default: within the bake's clearance the relief changes few pixels at the
   /// distances scenes are framed from (22 of 540,000 on the fully shattered bunny) for

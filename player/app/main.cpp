@@ -44,6 +44,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   run->add_flag("--fragment-colors", options.images.fragment_colors, "Debug view: each fragment in its own colour");
   run->add_flag("--cage", options.images.cage, "Debug view: draw the cages' edges over the image");
+  run->add_flag("--spheres", options.images.spheres,
+                "Debug view: draw each body's collision spheres in place of its surface");
+  run->add_flag("--replication-colors", options.images.replication_colors,
+                "Debug view: colour each triangle by how many tets it is drawn in (1 grey-green, 2 yellow, 3 orange, "
+                "4 red, 5+ purple)");
   run->add_option("--backend", backend, "Headless OpenGL: osmesa (software, the default) or egl (surfaceless; a GPU's driver where there is one)")
       ->capture_default_str();
   run->add_option("--steps", options.steps, "Number of steps of solver.dt")->capture_default_str();

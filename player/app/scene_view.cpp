@@ -1,38 +1,15 @@
 #include "player/app/scene_view.h"
 
 #include <cmath>
-#include <numbers>
 
 #include "common/tet_mesh.h"
+#include "player/render/shapes.h"
 
 namespace fissure::player {
 
 namespace {
 
 using render::Vec3f;
-
-/// A unit sphere, `rings` × `segments` quads split in two (poles included).
-render::PlainMesh unit_sphere(int rings, int segments) {
-  render::PlainMesh mesh;
-  for (int r = 0; r <= rings; ++r) {
-    const double theta = std::numbers::pi * r / rings;
-    for (int s = 0; s <= segments; ++s) {
-      const double phi = 2.0 * std::numbers::pi * s / segments;
-      const float x = static_cast<float>(std::sin(theta) * std::cos(phi)),
-                  y = static_cast<float>(std::sin(theta) * std::sin(phi)), z = static_cast<float>(std::cos(theta));
-      mesh.positions.insert(mesh.positions.end(), {x, y, z});
-      mesh.normals.insert(mesh.normals.end(), {x, y, z});
-    }
-  }
-  const auto at = [&](int r, int s) { return static_cast<std::uint32_t>(r * (segments + 1) + s); };
-  for (int r = 0; r < rings; ++r) {
-    for (int s = 0; s < segments; ++s) {
-      mesh.triangles.insert(mesh.triangles.end(), {at(r, s), at(r + 1, s), at(r + 1, s + 1)});
-      mesh.triangles.insert(mesh.triangles.end(), {at(r, s), at(r + 1, s + 1), at(r, s + 1)});
-    }
-  }
-  return mesh;
-}
 
 /// An axis-aligned box, each face its own four vertices so normals are flat.
 render::PlainMesh box(const Vec3& lo, const Vec3& hi) {
@@ -151,6 +128,15 @@ void add_wall_tables(const formats::Bundle& bundle, double scale, render::Embedd
   }
 }
 
+void add_collision_spheres(const sim::EmbeddedPoints& spheres, render::EmbeddedMesh& mesh) {
+  for (std::size_t k = 0; k < spheres.size(); ++k) {
+    mesh.sphere_tet.push_back(spheres.tet[k]);
+    const Vec4& b = spheres.barycentric[k];
+    mesh.sphere_barycentric.insert(mesh.sphere_barycentric.end(), {float(b[0]), float(b[1]), float(b[2]), float(b[3])});
+    mesh.sphere_radius.push_back(static_cast<float>(spheres.radius[k]));
+  }
+}
+
 render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::ImplicitIntegrator& body, double scale) {
   const formats::Embedding& e = bundle.embedding;
   const Matrix3Xd& rest = body.rest_positions();
@@ -181,6 +167,13 @@ render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::Imp
       mesh.rest_normal.insert(mesh.rest_normal.end(), {float(n.x()), float(n.y()), float(n.z())});
     }
   }
+  // The replication view's count per instance: instances of one triangle are adjacent.
+  mesh.instance_replicas.resize(e.instance_count());
+  for (std::size_t first = 0, next = 0; first < e.instance_count(); first = next) {
+    while (next < e.instance_count() && e.instance_triangle[next] == e.instance_triangle[first]) ++next;
+    std::fill(mesh.instance_replicas.begin() + static_cast<std::ptrdiff_t>(first),
+              mesh.instance_replicas.begin() + static_cast<std::ptrdiff_t>(next), static_cast<std::uint32_t>(next - first));
+  }
   mesh.rest_inverse.reserve(9 * static_cast<std::size_t>(tets.cols()));
   for (Eigen::Index t = 0; t < tets.cols(); ++t) {
     Mat3 edges;
@@ -199,6 +192,7 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   for (std::size_t b = 0; b < world.bodies().size(); ++b) {
     const sim::ImplicitIntegrator& body = world.bodies()[b].integrator();
     render::EmbeddedMesh mesh = embedded_mesh(assets[b].bundle, body, assets[b].scale);
+    add_collision_spheres(world.bodies()[b].spheres, mesh);
     if (assets[b].color) mesh.color = assets[b].color->cast<float>();
     if (assets[b].interior_color) mesh.interior_color = assets[b].interior_color->cast<float>();
     m_bodies.push_back(renderer.add_body(mesh));
@@ -209,7 +203,7 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   const sim::Environment& environment = world.environment();
   if (environment.ground) renderer.add_plain(ground_patch(*environment.ground, bounds.center(), 25.0 * size));
   for (const sim::Box& b : environment.boxes) renderer.add_plain(box(b.min, b.max));
-  const render::PlainMesh sphere = unit_sphere(24, 48);
+  const render::PlainMesh sphere = render::unit_sphere(24, 48);
   for (const sim::Ball& b : environment.balls) renderer.set_transform(renderer.add_plain(sphere), placed(b.center, b.radius));
   render::PlainMesh projectile = sphere;
   projectile.color = Vec3f(0.75f, 0.30f, 0.22f);

@@ -20,6 +20,9 @@ namespace fissure::player {
 /// object (the walls' relief is in world metres).
 render::EmbeddedMesh embedded_mesh(const formats::Bundle& bundle, const sim::ImplicitIntegrator& body, double scale);
 
+/// The physics' collision spheres of a body, for the renderer's sphere view.
+void add_collision_spheres(const sim::EmbeddedPoints& spheres, render::EmbeddedMesh& mesh);
+
 class SceneView {
  public:
   /// Adds the world's bodies and obstacles to `renderer` and frames the camera, or

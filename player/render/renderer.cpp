@@ -13,6 +13,7 @@
 #include "common/error.h"
 #include "player/render/gpu_buffer.h"
 #include "player/render/shader_program.h"
+#include "player/render/shapes.h"
 
 namespace fissure::render {
 
@@ -74,6 +75,15 @@ GLuint upload_detail(int res, const std::vector<std::uint8_t>& texels, int chann
   return texture;
 }
 
+/// A collision sphere as sphere.vert.glsl reads it (std430).
+struct SphereData {
+  float barycentric[4];
+  std::uint32_t tet;
+  float radius;
+  float padding[2];
+};
+static_assert(sizeof(SphereData) == 32);
+
 struct EmbeddedBody {
   GlName vertices{GlName::Kind::Buffer};
   GlName indices{GlName::Kind::Buffer};
@@ -85,6 +95,10 @@ struct EmbeddedBody {
   bool posed = false, visible = true;
   // Walls: the static per-slot tables and tiles, and the slots fracture opened.
   StorageBuffer face_tile, face_uv, walls, detail_repeat, fragments, relief;
+  // Debug views: per instance its triangle's replica count; the collision spheres.
+  StorageBuffer replicas, spheres;
+  GLsizei sphere_count = 0;
+  Vec3f sphere_color;
   GLuint detail = 0;  ///< GL_TEXTURE_2D (RGB8, repeating, mipmapped), 0 without a detail material
   GLuint height = 0;  ///< GL_TEXTURE_2D (R8, repeating, mipmapped), 0 without relief
   int detail_resolution = 0;
@@ -147,6 +161,7 @@ struct PlainBody {
   Vec3f color;
   Mat4f transform = Mat4f::Identity();
   bool visible = true;
+  std::size_t upload_bytes = 0;  ///< what making it sent to the GPU
 };
 
 Mat4f look_at(const Camera& c) {
@@ -185,6 +200,58 @@ void set_vertex_attribute(GLuint vao, GLuint index, GLint size, GLenum type, GLu
   glVertexArrayAttribBinding(vao, index, 0);
 }
 
+/// A plain mesh's buffers, interleaved position and normal per vertex.
+std::unique_ptr<PlainBody> upload_plain(const PlainMesh& mesh) {
+  if (mesh.normals.size() != mesh.positions.size() || mesh.positions.size() % 3 != 0 || mesh.triangles.size() % 3 != 0) {
+    throw Error("plain mesh: positions, normals and triangles do not match", "give 3 values per vertex and per triangle");
+  }
+  auto body = std::make_unique<PlainBody>();
+  std::vector<float> interleaved;
+  interleaved.reserve(2 * mesh.positions.size());
+  for (std::size_t v = 0; v < mesh.positions.size() / 3; ++v) {
+    interleaved.insert(interleaved.end(), &mesh.positions[3 * v], &mesh.positions[3 * v] + 3);
+    interleaved.insert(interleaved.end(), &mesh.normals[3 * v], &mesh.normals[3 * v] + 3);
+  }
+  glNamedBufferStorage(body->vertices.get(), static_cast<GLsizeiptr>(std::max<std::size_t>(1, interleaved.size()) * sizeof(float)),
+                       interleaved.empty() ? nullptr : interleaved.data(), 0);
+  glNamedBufferStorage(body->indices.get(),
+                       static_cast<GLsizeiptr>(std::max<std::size_t>(1, mesh.triangles.size()) * sizeof(std::uint32_t)),
+                       mesh.triangles.empty() ? nullptr : mesh.triangles.data(), 0);
+  const GLuint vao = body->vertex_array.get();
+  glVertexArrayVertexBuffer(vao, 0, body->vertices.get(), 0, 6 * sizeof(float));
+  glVertexArrayElementBuffer(vao, body->indices.get());
+  set_vertex_attribute(vao, 0, 3, GL_FLOAT, 0, false);
+  set_vertex_attribute(vao, 1, 3, GL_FLOAT, 3 * sizeof(float), false);
+  body->index_count = static_cast<GLsizei>(mesh.triangles.size());
+  body->color = mesh.color;
+  body->upload_bytes = interleaved.size() * sizeof(float) + mesh.triangles.size() * sizeof(std::uint32_t);
+  return body;
+}
+
+/// The debug views' static data: the replica count per instance (1 where the mesh
+/// gives none) and the collision spheres. Returns the bytes sent.
+std::size_t upload_debug_data(const EmbeddedMesh& mesh, EmbeddedBody& body) {
+  const std::size_t spheres = mesh.sphere_tet.size();
+  if (mesh.sphere_barycentric.size() != 4 * spheres || mesh.sphere_radius.size() != spheres) {
+    throw Error("embedded mesh: " + std::to_string(spheres) + " spheres with " +
+                    std::to_string(mesh.sphere_barycentric.size()) + " barycentric values and " +
+                    std::to_string(mesh.sphere_radius.size()) + " radii",
+                "give 4 barycentric values and 1 radius per sphere");
+  }
+  std::vector<std::uint32_t> replicas = mesh.instance_replicas;
+  replicas.resize(static_cast<std::size_t>(body.corners) / 3, 1);
+  std::vector<SphereData> data(spheres);
+  for (std::size_t k = 0; k < spheres; ++k) {
+    std::copy_n(&mesh.sphere_barycentric[4 * k], 4, data[k].barycentric);
+    data[k].tet = mesh.sphere_tet[k];
+    data[k].radius = mesh.sphere_radius[k];
+  }
+  body.sphere_count = static_cast<GLsizei>(spheres);
+  body.sphere_color = mesh.sphere_color;
+  return body.replicas.upload(replicas.data(), replicas.size() * sizeof(std::uint32_t)) +
+         body.spheres.upload(data.data(), data.size() * sizeof(SphereData));
+}
+
 }  // namespace
 
 Camera frame_box(const Eigen::AlignedBox3f& box, const Vec3f& direction, const Vec3f& up, float fov_y_degrees,
@@ -208,9 +275,11 @@ struct Renderer::Impl {
   GlName framebuffer{GlName::Kind::Framebuffer};
   GlName color{GlName::Kind::Renderbuffer};
   GlName depth{GlName::Kind::Renderbuffer};
-  ShaderProgram embedded, plain, wall, wall_tessellated, cage;
+  ShaderProgram embedded, plain, wall, wall_tessellated, cage, sphere;
   GlName empty_vertex_array{GlName::Kind::VertexArray};  ///< walls read everything from storage buffers
   bool walls_visible = true, normal_mapping = true, fragment_colors = false, cage_visible = false;
+  bool spheres_visible = false, replication_colors = false;
+  std::unique_ptr<PlainBody> debug_sphere;  ///< the unit sphere the sphere view instances
   float tessellation_level = 1.0f, pixels_per_segment = 8.0f;  ///< level ≤ 1: walls drawn flat
   std::vector<std::unique_ptr<EmbeddedBody>> bodies;
   std::vector<std::unique_ptr<PlainBody>> plains;
@@ -232,7 +301,9 @@ struct Renderer::Impl {
         wall_tessellated({embedded_shader("wall.vert.glsl"), embedded_shader("wall.tesc.glsl"),
                           embedded_shader("wall.tese.glsl"), embedded_shader("wall.frag.glsl"),
                           embedded_shader("lighting.frag.glsl")}),
-        cage({embedded_shader("cage.vert.glsl"), embedded_shader("cage.frag.glsl")}) {
+        cage({embedded_shader("cage.vert.glsl"), embedded_shader("cage.frag.glsl")}),
+        sphere({embedded_shader("sphere.vert.glsl"), embedded_shader("plain.frag.glsl"),
+                embedded_shader("lighting.frag.glsl")}) {
     glNamedRenderbufferStorage(color.get(), GL_RGBA8, w, h);
     glNamedRenderbufferStorage(depth.get(), GL_DEPTH_COMPONENT24, w, h);
     glNamedFramebufferRenderbuffer(framebuffer.get(), GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color.get());
@@ -254,13 +325,18 @@ struct Renderer::Impl {
   void draw_bodies(const Mat4f& view_projection) {
     set_common_uniforms(embedded, view_projection);
     glUniform1i(embedded.uniform("fragment_colors"), fragment_colors ? 1 : 0);
+    glUniform1i(embedded.uniform("replication_colors"), replication_colors ? 1 : 0);
+    std::array<Vec3f, 5> palette;
+    for (std::uint32_t k = 0; k < palette.size(); ++k) palette[k] = replication_color(k + 1);
+    glUniform3fv(embedded.uniform("replication_palette"), 5, palette[0].data());
     for (const auto& body : bodies) {
-      if (!body->visible || !body->posed || body->corners == 0) continue;
+      if (!body->visible || !body->posed || body->corners == 0 || spheres_visible) continue;
       glUniform3fv(embedded.uniform("base_color"), 1, body->color.data());
       body->nodes.bind(0);
       body->tets.bind(1);
       body->rest_inverse.bind(2);
       body->fragments.bind(7);
+      body->replicas.bind(10);
       glBindVertexArray(body->vertex_array.get());
       glDrawElements(GL_TRIANGLES, body->corners, GL_UNSIGNED_INT, nullptr);
     }
@@ -269,7 +345,7 @@ struct Renderer::Impl {
   /// The walls fracture opened: one triangle per wall, or one patch per wall when
   /// tessellation is on (wall.tesc.glsl splits only the walls that have relief).
   void draw_walls(const Mat4f& view_projection) {
-    if (!walls_visible) return;
+    if (!walls_visible || spheres_visible) return;
     const bool tessellate = tessellation_level > 1.0f;
     const ShaderProgram& program = tessellate ? wall_tessellated : wall;
     set_common_uniforms(program, view_projection);
@@ -315,6 +391,22 @@ struct Renderer::Impl {
       body->nodes.bind(0);
       body->tets.bind(1);
       glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(12 * (body->tets.size() / (4 * sizeof(std::uint32_t)))));
+    }
+  }
+
+  /// The collision-sphere view: one instanced draw of the unit sphere per body.
+  void draw_spheres(const Mat4f& view_projection) {
+    if (!spheres_visible) return;
+    if (!debug_sphere) debug_sphere = upload_plain(unit_sphere(kDebugSphereRings, kDebugSphereSegments));
+    set_common_uniforms(sphere, view_projection);
+    glBindVertexArray(debug_sphere->vertex_array.get());
+    for (const auto& body : bodies) {
+      if (!body->visible || !body->posed || body->sphere_count == 0) continue;
+      glUniform3fv(sphere.uniform("base_color"), 1, body->sphere_color.data());
+      body->nodes.bind(0);
+      body->tets.bind(1);
+      body->spheres.bind(9);
+      glDrawElementsInstanced(GL_TRIANGLES, debug_sphere->index_count, GL_UNSIGNED_INT, nullptr, body->sphere_count);
     }
   }
 
@@ -402,6 +494,7 @@ std::size_t Renderer::add_body(const EmbeddedMesh& mesh) {
   relief.resize(mesh.face_tile.size(), 0.0f);
   m_impl->pending_upload += body->relief.upload(relief.data(), relief.size() * sizeof(float)) + mesh.detail_height.size();
   m_impl->pending_upload += mesh.tiles.size();
+  m_impl->pending_upload += upload_debug_data(mesh, *body);
   m_impl->bodies.push_back(std::move(body));
   return m_impl->bodies.size() - 1;
 }
@@ -428,29 +521,8 @@ void Renderer::set_pose(std::size_t index, const BodyPose& pose) {
 }
 
 std::size_t Renderer::add_plain(const PlainMesh& mesh) {
-  if (mesh.normals.size() != mesh.positions.size() || mesh.positions.size() % 3 != 0 || mesh.triangles.size() % 3 != 0) {
-    throw Error("plain mesh: positions, normals and triangles do not match", "give 3 values per vertex and per triangle");
-  }
-  auto body = std::make_unique<PlainBody>();
-  std::vector<float> interleaved;
-  interleaved.reserve(2 * mesh.positions.size());
-  for (std::size_t v = 0; v < mesh.positions.size() / 3; ++v) {
-    interleaved.insert(interleaved.end(), &mesh.positions[3 * v], &mesh.positions[3 * v] + 3);
-    interleaved.insert(interleaved.end(), &mesh.normals[3 * v], &mesh.normals[3 * v] + 3);
-  }
-  glNamedBufferStorage(body->vertices.get(), static_cast<GLsizeiptr>(std::max<std::size_t>(1, interleaved.size()) * sizeof(float)),
-                       interleaved.empty() ? nullptr : interleaved.data(), 0);
-  glNamedBufferStorage(body->indices.get(),
-                       static_cast<GLsizeiptr>(std::max<std::size_t>(1, mesh.triangles.size()) * sizeof(std::uint32_t)),
-                       mesh.triangles.empty() ? nullptr : mesh.triangles.data(), 0);
-  const GLuint vao = body->vertex_array.get();
-  glVertexArrayVertexBuffer(vao, 0, body->vertices.get(), 0, 6 * sizeof(float));
-  glVertexArrayElementBuffer(vao, body->indices.get());
-  set_vertex_attribute(vao, 0, 3, GL_FLOAT, 0, false);
-  set_vertex_attribute(vao, 1, 3, GL_FLOAT, 3 * sizeof(float), false);
-  body->index_count = static_cast<GLsizei>(mesh.triangles.size());
-  body->color = mesh.color;
-  m_impl->pending_upload += interleaved.size() * sizeof(float) + mesh.triangles.size() * sizeof(std::uint32_t);
+  auto body = upload_plain(mesh);
+  m_impl->pending_upload += body->upload_bytes;
   m_impl->plains.push_back(std::move(body));
   return m_impl->plains.size() - 1;
 }
@@ -468,6 +540,15 @@ void Renderer::set_tessellation(float max_level, float pixels_per_segment) {
   m_impl->pixels_per_segment = std::max(pixels_per_segment, 0.5f);
 }
 void Renderer::set_cage_visible(bool visible) { m_impl->cage_visible = visible; }
+void Renderer::set_spheres_visible(bool visible) { m_impl->spheres_visible = visible; }
+void Renderer::set_replication_colors(bool enabled) { m_impl->replication_colors = enabled; }
+
+Vec3f replication_color(std::uint32_t replicas) {
+  static const std::array<Vec3f, 5> palette{Vec3f(0.62f, 0.74f, 0.58f), Vec3f(0.93f, 0.82f, 0.36f),
+                                            Vec3f(0.93f, 0.55f, 0.22f), Vec3f(0.84f, 0.24f, 0.20f),
+                                            Vec3f(0.55f, 0.22f, 0.62f)};
+  return palette[std::clamp<std::uint32_t>(replicas, 1, 5) - 1];
+}
 void Renderer::set_camera(const Camera& camera) { m_impl->camera = camera; }
 void Renderer::set_light(const Light& light) { m_impl->light = light; }
 void Renderer::set_background(const Vec3f& color) { m_impl->background = color; }
@@ -488,6 +569,7 @@ void Renderer::render(std::vector<std::uint8_t>& rgba) {
   r.draw_plains(view_projection);
   r.draw_bodies(view_projection);
   r.draw_walls(view_projection);
+  r.draw_spheres(view_projection);
   r.draw_cages(view_projection);
   const std::size_t row = 4 * static_cast<std::size_t>(r.width);
   rgba.resize(row * static_cast<std::size_t>(r.height));

@@ -77,7 +77,20 @@ struct EmbeddedMesh {
   /// Empty: no relief.
   std::vector<std::uint8_t> detail_height;
   std::vector<float> face_relief;
+  /// For the replication view: per instance, how many instances its triangle has (in how
+  /// many tets it is drawn). Empty: every triangle counts as one.
+  std::vector<std::uint32_t> instance_replicas;
+  /// For the collision-sphere view: the physics' spheres, each a tet, its centre's 4
+  /// barycentric coordinates in it and its radius [m]. Empty: the view shows none.
+  std::vector<std::uint32_t> sphere_tet;
+  std::vector<float> sphere_barycentric;
+  std::vector<float> sphere_radius;
+  Vec3f sphere_color = Vec3f(0.30f, 0.60f, 0.80f);
 };
+
+/// The replication view's colour of a triangle drawn in `replicas` tets (thesis
+/// Fig. 24): 1 grey-green, 2 yellow, 3 orange, 4 red, 5 or more purple.
+Vec3f replication_color(std::uint32_t replicas);
 
 /// One body's cage as it is this frame.
 struct BodyPose {
@@ -138,6 +151,12 @@ class Renderer {
   void set_fragment_colors(bool enabled);
   /// Debug view: the cages' edges over the image.
   void set_cage_visible(bool visible);
+  /// Debug view: each body's collision spheres where the physics has them, drawn in
+  /// place of its surface and walls (thesis Fig. 20).
+  void set_spheres_visible(bool visible);
+  /// Debug view: each triangle coloured by how many tets it is drawn in (thesis Fig. 24;
+  /// replication_color()).
+  void set_replication_colors(bool enabled);
 
   void set_camera(const Camera& camera);
   void set_light(const Light& light);

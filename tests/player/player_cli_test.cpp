@@ -102,7 +102,7 @@ TEST_F(PlayerCli, DebugViewsAndToggledFeaturesRender) {
     return formats::read_png(folder / "frame-00000.png").rgba;
   };
   const auto plain = frame("", "plain");
-  for (const char* options : {"--cage", "--fragment-colors"}) EXPECT_NE(frame(options, "view"), plain) << options;
+  for (const char* options : {"--cage", "--fragment-colors", "--spheres", "--replication-colors"}) EXPECT_NE(frame(options, "view"), plain) << options;
   for (const char* options : {"--no-walls", "--no-normal-mapping", "--tessellation 0", "--tessellation 64", "--backend egl"}) {
     EXPECT_EQ(frame(options, "same"), plain) << options << ": nothing is broken open at rest, and EGL draws as OSMesa";
   }

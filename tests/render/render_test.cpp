@@ -8,12 +8,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 
 #include "bake/bake.h"
 #include "common/error.h"
 #include "formats/image.h"
 #include "player/app/scene_view.h"
 #include "player/render/context.h"
+#include "player/render/shapes.h"
 #include "player/render/shader_program.h"
 #include "tests/support/image_compare.h"
 #include "tests/support/mapped_mesh.h"
@@ -119,6 +121,81 @@ TEST(Render, UnderABendTheEmbeddedMeshHasNoHoles) {
   const std::uint8_t background[3] = {pair.direct.rgba[0], pair.direct.rgba[1], pair.direct.rgba[2]};
   EXPECT_EQ(testing::holes(pair.embedded, pair.direct, background), 0u);
   expect_match(pair, "bent", {.max_abs = 24, .shift = 1, .max_failing_fraction = 5e-3});
+}
+
+/// The debug views drawn by the renderer, and what they must equal drawn on the CPU as
+/// plain meshes (same camera): the pair compared like the embedded mesh.
+RenderPair render_debug_view(const sim::World& world, const std::function<void(render::Renderer&)>& set_view,
+                             const std::vector<render::PlainMesh>& expected) {
+  const auto context = render::create_headless_context(render::Backend::OSMesa);
+  render::Renderer renderer(kSize, kSize);
+  const std::vector<player::BodyAssets> assets{{"sphere.h5", sphere().bundle, 1.0, {}, {}}};
+  player::SceneView view(world, assets, renderer);
+  const Eigen::AlignedBox3f box(Eigen::Vector3f::Constant(0.05f), Eigen::Vector3f::Constant(0.95f));
+  renderer.set_camera(render::frame_box(box, render::Vec3f(-0.55f, 0.75f, -0.38f), render::Vec3f::UnitZ(), 35.0f, 1.0f));
+  RenderPair out{{kSize, kSize, {}}, {kSize, kSize, {}}};
+  set_view(renderer);
+  renderer.render(out.embedded.rgba);
+  renderer.set_body_visible(0, false);
+  for (const render::PlainMesh& mesh : expected) renderer.add_plain(mesh);
+  renderer.render(out.direct.rgba);
+  return out;
+}
+
+/// The world's collision spheres as plain spheres placed on the CPU.
+std::vector<render::PlainMesh> spheres_on_cpu(const sim::World& world) {
+  const sim::Body& body = world.bodies()[0];
+  const render::PlainMesh unit = render::unit_sphere(render::kDebugSphereRings, render::kDebugSphereSegments);
+  render::PlainMesh all;
+  all.color = render::EmbeddedMesh{}.sphere_color;
+  for (std::size_t k = 0; k < body.spheres.size(); ++k) {
+    const Vec3 centre = sim::embedded_position(body.integrator().positions(), body.integrator().elasticity().tets(), body.spheres, k);
+    const auto first = static_cast<std::uint32_t>(all.positions.size() / 3);
+    for (std::size_t v = 0; v < unit.positions.size(); ++v) {
+      all.positions.push_back(static_cast<float>(centre[static_cast<Eigen::Index>(v % 3)] + body.spheres.radius[k] * unit.positions[v]));
+    }
+    all.normals.insert(all.normals.end(), unit.normals.begin(), unit.normals.end());
+    for (const std::uint32_t i : unit.triangles) all.triangles.push_back(first + i);
+  }
+  return {all};
+}
+
+TEST(Render, TheSphereViewDrawsThePhysicsCollisionSpheresWhereTheCpuPlacesThem) {
+  const auto show_spheres = [](render::Renderer& r) { r.set_spheres_visible(true); };
+  const auto rest = sphere().world();
+  ASSERT_GT(rest->bodies()[0].spheres.size(), 100u);
+  expect_match(render_debug_view(*rest, show_spheres, spheres_on_cpu(*rest)), "spheres-rest");
+  Mat3 affine;
+  affine << 1.3, 0.4, 0.0, 0.0, 0.8, 0.2, 0.1, 0.0, 1.1;
+  const auto sheared = sphere().world(affine * sphere().cage.rest_positions);
+  expect_match(render_debug_view(*sheared, show_spheres, spheres_on_cpu(*sheared)), "spheres-affine");
+}
+
+TEST(Render, TheReplicationViewColoursEachTriangleByHowManyTetsItIsDrawnIn) {
+  // Expected: the CPU-placed mesh split by replica count, each part in its colour.
+  const formats::Bundle& bundle = sphere().bundle;
+  std::vector<std::uint32_t> replicas(static_cast<std::size_t>(bundle.render.triangles.cols()), 0);
+  for (const TriangleIndex t : bundle.embedding.instance_triangle) ++replicas[t];
+  const auto world = sphere().world();
+  const sim::ImplicitIntegrator& body = world->bodies()[0].integrator();
+  const render::PlainMesh whole = testing::mapped_mesh(bundle, body.positions(), body.elasticity().tets());
+  std::vector<render::PlainMesh> parts(5, whole);
+  std::array<std::size_t, 5> count{};
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    parts[k].triangles.clear();
+    parts[k].color = render::replication_color(static_cast<std::uint32_t>(k + 1));
+  }
+  for (std::size_t t = 0; t < replicas.size(); ++t) {
+    const std::size_t k = std::min<std::size_t>(replicas[t], 5) - 1;
+    ++count[k];
+    parts[k].triangles.insert(parts[k].triangles.end(), &whole.triangles[3 * t], &whole.triangles[3 * t] + 3);
+  }
+  // The sphere in its 4³ cage has triangles drawn once, twice and three or more times.
+  EXPECT_GT(count[0], 0u);
+  EXPECT_GT(count[1], 0u);
+  EXPECT_GT(count[2] + count[3] + count[4], 0u);
+  const auto colour_replicas = [](render::Renderer& r) { r.set_replication_colors(true); };
+  expect_match(render_debug_view(*world, colour_replicas, parts), "replication");
 }
 
 // A forced fracture: the cage cut along x = 0.5, its right half moved out of view, and
