@@ -13,7 +13,7 @@ packages=(
   libassimp-dev libhdf5-dev hdf5-tools
   libcli11-dev libtbb-dev libtomlplusplus-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libglfw3-dev libosmesa6-dev libgl-dev libegl-dev libegl-mesa0 libgl1-mesa-dri python3-glad
+  libglfw3-dev libimgui-dev xvfb xauth libosmesa6-dev libgl-dev libegl-dev libegl-mesa0 libgl1-mesa-dri python3-glad
   ffmpeg
   libssl-dev
   libsuitesparse-dev libopenblas0-serial

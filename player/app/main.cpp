@@ -1,5 +1,5 @@
 // fissure-player: the runtime half of Fissure. A thin CLI over the scene reader, the
-// physics and the headless renderer (frames and video).
+// physics, the headless renderer (frames and video) and the interactive viewer.
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
@@ -12,6 +12,7 @@
 #include "common/log.h"
 #include "formats/scene.h"
 #include "player/app/run.h"
+#include "player/view/viewer.h"
 
 int main(int argc, char** argv) {
   using namespace fissure;
@@ -61,13 +62,44 @@ int main(int argc, char** argv) {
                 "Skip the per-step energy and penetration checks (the report then has no energy or penetration)");
   run->add_option("-j,--threads", threads, "Worker threads (default: solver.threads of the scene; 0 = all cores)");
 
+  CLI::App* view = app.add_subcommand("view", "Play a scene in a window, with a panel to break and tune it live");
+  std::string view_scene_path, view_size = "1280x720";
+  view::ViewOptions view_options;
+  std::string screenshot, script;
+  bool no_panel = false;
+  view->add_option("scene", view_scene_path, "Scene file (TOML)")->required();
+  view->add_option("--size", view_size, "Window size, WIDTHxHEIGHT")->capture_default_str();
+  view->add_flag("--paused", view_options.paused, "Start paused (space resumes, N steps)");
+  view->add_option("--steps-per-frame", view_options.steps_per_frame,
+                   "Take exactly this many steps per frame instead of running in real time (repeatable runs)")
+      ->check(CLI::Range(0, 1000));
+  view->add_option("--exit-after-frames", view_options.exit_after_frames, "Close after this many frames")
+      ->check(CLI::Range(0L, 100'000'000L));
+  view->add_option("--screenshot", screenshot, "At exit, write the last frame (without the panel) as PNG");
+  view->add_option("--script", script,
+                   "Take actions from a file, one per frame: wait N, pause, resume, step N, fire X Y, toggle FEATURE, "
+                   "set OBJECT PARAM VALUE, screenshot PATH, quit (see player/view/view_script.h)");
+  view->add_flag("--no-panel", no_panel, "Hide the panel (H toggles it)");
+  view->footer(
+      "Mouse: left drag orbits, right or middle drag (or shift + left) pans, wheel zooms, a left click fires a "
+      "projectile through the cursor.\nKeys: space pause/resume, N one step, R reset, F the scene's framing, "
+      "P screenshot, H panel, Esc quit.\nNeeds a display; without one use `run --frames` (or xvfb-run -a).");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // CLI11 prints the message or the help; a bad command line is exit 1, like any bad input.
+    return app.exit(e) == 0 ? 0 : 1;
   }
   set_log_level(quiet ? LogLevel::Warning : (verbose ? LogLevel::Debug : LogLevel::Info));
   try {
+    if (view->parsed()) {
+      std::tie(view_options.width, view_options.height) = player::parse_size(view_size);
+      view_options.screenshot = screenshot;
+      view_options.script = script;
+      view_options.panel = !no_panel;
+      return view::view_scene(formats::read_scene(view_scene_path), view_options);
+    }
     if (no_render && (!frames.empty() || !video.empty())) {
       throw Error("--no-render contradicts --frames and --video", "leave out --no-render to make images");
     }

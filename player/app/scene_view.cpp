@@ -205,9 +205,8 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   for (const sim::Box& b : environment.boxes) renderer.add_plain(box(b.min, b.max));
   const render::PlainMesh sphere = render::unit_sphere(24, 48);
   for (const sim::Ball& b : environment.balls) renderer.set_transform(renderer.add_plain(sphere), placed(b.center, b.radius));
-  render::PlainMesh projectile = sphere;
-  projectile.color = Vec3f(0.75f, 0.30f, 0.22f);
-  for (std::size_t j = 0; j < world.projectiles().size(); ++j) m_projectiles.push_back(renderer.add_plain(projectile));
+  m_projectile_mesh = sphere;
+  m_projectile_mesh.color = Vec3f(0.75f, 0.30f, 0.22f);
   // Frame the bodies with a margin of a tenth of their size (update() follows them):
   // from the front, a little above, with the world's up (the ground's normal, else
   // against gravity) at the top, and the light above.
@@ -239,6 +238,12 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   update(world);
 }
 
+void SceneView::set_camera(const render::Camera& camera) {
+  m_follow = false;
+  m_camera = m_current = camera;
+  m_renderer.set_camera(camera);
+}
+
 void SceneView::update(const sim::World& world) {
   // Follow the bodies' centre (of their nodes' bounds), keeping the starting view's offset.
   Eigen::AlignedBox3d bounds;
@@ -255,11 +260,13 @@ void SceneView::update(const sim::World& world) {
     camera.target += shift;
   }
   m_renderer.set_camera(camera);
+  m_current = camera;
   for (std::size_t b = 0; b < m_bodies.size(); ++b) {
     update_render_frame(world.frame(b, false), m_frames[b]);  // the renderer makes F itself
     const RenderFrame& f = m_frames[b];
     m_renderer.set_pose(m_bodies[b], {f.positions, f.tets, f.faces, f.fragment, f.topology_version});
   }
+  while (m_projectiles.size() < world.projectiles().size()) m_projectiles.push_back(m_renderer.add_plain(m_projectile_mesh));
   for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
     const sim::Projectile& p = world.projectiles()[j];
     m_renderer.set_visible(m_projectiles[j], p.launched);

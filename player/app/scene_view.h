@@ -34,14 +34,21 @@ class SceneView {
   /// this uploads: positions, gradients, and tets only when fracture changed them).
   void update(const sim::World& world);
 
+  /// The camera the last update() placed.
+  [[nodiscard]] const render::Camera& camera() const { return m_current; }
+  /// Places the camera where a user put it; it stays there (no longer follows the bodies).
+  void set_camera(const render::Camera& camera);
+
  private:
   render::Renderer& m_renderer;
   std::vector<std::size_t> m_bodies;       ///< renderer handle per body
   std::vector<RenderFrame> m_frames;       ///< per body
   std::vector<std::size_t> m_projectiles;  ///< renderer handle per projectile
+  render::PlainMesh m_projectile_mesh;     ///< for projectiles added while the world runs (a viewer's shots)
   render::Camera m_camera;                 ///< as framed at the start; update() moves it with the bodies
   bool m_follow = true;                    ///< false: the scene placed the camera
   Vec3 m_start_centre;                     ///< the bodies' centre at the start
+  render::Camera m_current;                ///< as the last update() placed it
 };
 
 }  // namespace fissure::player

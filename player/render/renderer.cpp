@@ -252,6 +252,13 @@ std::size_t upload_debug_data(const EmbeddedMesh& mesh, EmbeddedBody& body) {
          body.spheres.upload(data.data(), data.size() * sizeof(SphereData));
 }
 
+void check_size(int width, int height) {
+  if (width < 1 || height < 1 || width > 16384 || height > 16384) {
+    throw Error("image size " + std::to_string(width) + "×" + std::to_string(height) + " is out of range",
+                "use a size from 1×1 to 16384×16384, e.g. --size 1280x720");
+  }
+}
+
 }  // namespace
 
 Camera frame_box(const Eigen::AlignedBox3f& box, const Vec3f& direction, const Vec3f& up, float fov_y_degrees,
@@ -304,6 +311,12 @@ struct Renderer::Impl {
         cage({embedded_shader("cage.vert.glsl"), embedded_shader("cage.frag.glsl")}),
         sphere({embedded_shader("sphere.vert.glsl"), embedded_shader("plain.frag.glsl"),
                 embedded_shader("lighting.frag.glsl")}) {
+    make_target(w, h);
+  }
+
+  /// (Re)allocates the framebuffer's colour and depth storage.
+  void make_target(int w, int h) {
+    // Storage made by glNamedRenderbufferStorage may be respecified: a resize reuses the names.
     glNamedRenderbufferStorage(color.get(), GL_RGBA8, w, h);
     glNamedRenderbufferStorage(depth.get(), GL_DEPTH_COMPONENT24, w, h);
     glNamedFramebufferRenderbuffer(framebuffer.get(), GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color.get());
@@ -312,6 +325,8 @@ struct Renderer::Impl {
       throw Error("the render target (" + std::to_string(w) + "×" + std::to_string(h) + ") is incomplete",
                   "try a smaller --size");
     }
+    width = w;
+    height = h;
   }
 
   void set_common_uniforms(const ShaderProgram& program, const Mat4f& view_projection) const {
@@ -423,10 +438,7 @@ struct Renderer::Impl {
 };
 
 Renderer::Renderer(int width, int height) {
-  if (width < 1 || height < 1 || width > 16384 || height > 16384) {
-    throw Error("image size " + std::to_string(width) + "×" + std::to_string(height) + " is out of range",
-                "use a size from 1×1 to 16384×16384, e.g. --size 1280x720");
-  }
+  check_size(width, height);
   m_impl = std::make_unique<Impl>(width, height);
 }
 
@@ -554,7 +566,12 @@ void Renderer::set_light(const Light& light) { m_impl->light = light; }
 void Renderer::set_background(const Vec3f& color) { m_impl->background = color; }
 const RenderStats& Renderer::last_stats() const { return m_impl->stats; }
 
-void Renderer::render(std::vector<std::uint8_t>& rgba) {
+void Renderer::resize(int width, int height) {
+  check_size(width, height);
+  if (width != m_impl->width || height != m_impl->height) m_impl->make_target(width, height);
+}
+
+void Renderer::draw() {
   const auto start = std::chrono::steady_clock::now();
   Impl& r = *m_impl;
   glBindFramebuffer(GL_FRAMEBUFFER, r.framebuffer.get());
@@ -562,6 +579,8 @@ void Renderer::render(std::vector<std::uint8_t>& rgba) {
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LEQUAL);
   glDisable(GL_CULL_FACE);
+  glDisable(GL_BLEND);
+  glDisable(GL_SCISSOR_TEST);
   glClearColor(r.background.x(), r.background.y(), r.background.z(), 1.0f);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   const Mat4f view_projection =
@@ -571,8 +590,19 @@ void Renderer::render(std::vector<std::uint8_t>& rgba) {
   r.draw_walls(view_projection);
   r.draw_spheres(view_projection);
   r.draw_cages(view_projection);
+  const GLenum error = glGetError();
+  if (error != GL_NO_ERROR) {
+    throw Error("OpenGL error 0x" + std::to_string(error) + " while drawing", "this is a bug; please report it");
+  }
+  r.stats.upload_bytes = std::exchange(r.pending_upload, 0);
+  r.stats.draw_ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void Renderer::read(std::vector<std::uint8_t>& rgba) const {
+  const Impl& r = *m_impl;
   const std::size_t row = 4 * static_cast<std::size_t>(r.width);
   rgba.resize(row * static_cast<std::size_t>(r.height));
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, r.framebuffer.get());
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
   glReadPixels(0, 0, r.width, r.height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
   // GL's rows start at the bottom; images start at the top.
@@ -581,12 +611,21 @@ void Renderer::render(std::vector<std::uint8_t>& rgba) {
                      rgba.begin() + static_cast<std::ptrdiff_t>((y + 1) * row),
                      rgba.begin() + static_cast<std::ptrdiff_t>((r.height - 1 - y) * row));
   }
-  const GLenum error = glGetError();
-  if (error != GL_NO_ERROR) {
-    throw Error("OpenGL error 0x" + std::to_string(error) + " while drawing", "this is a bug; please report it");
-  }
-  r.stats.upload_bytes = std::exchange(r.pending_upload, 0);
-  r.stats.draw_ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void Renderer::render(std::vector<std::uint8_t>& rgba) {
+  const auto start = std::chrono::steady_clock::now();
+  draw();
+  read(rgba);
+  // draw_ms counts the read-back too: with it the GPU's work is finished, not queued.
+  m_impl->stats.draw_ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void Renderer::present(int width, int height) const {
+  glBlitNamedFramebuffer(m_impl->framebuffer.get(), 0, 0, 0, m_impl->width, m_impl->height, 0, 0, width, height,
+                         GL_COLOR_BUFFER_BIT, GL_NEAREST);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glViewport(0, 0, width, height);
 }
 
 }  // namespace fissure::render

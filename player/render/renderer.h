@@ -165,6 +165,15 @@ class Renderer {
   /// Draws everything and reads the image back into `rgba`: width × height × 4 bytes,
   /// top row first.
   void render(std::vector<std::uint8_t>& rgba);
+  /// Draws everything into the renderer's framebuffer without reading it back (a window
+  /// shows it with present()); read() reads the last drawing.
+  void draw();
+  void read(std::vector<std::uint8_t>& rgba) const;
+  /// Copies the last drawing to the current context's default framebuffer (a window's),
+  /// `width` × `height` pixels, and leaves that framebuffer bound for overlays (a UI).
+  void present(int width, int height) const;
+  /// A new image size (a resized window); throws fissure::Error as the constructor does.
+  void resize(int width, int height);
   [[nodiscard]] const RenderStats& last_stats() const;
 
  private:

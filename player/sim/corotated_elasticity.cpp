@@ -270,6 +270,12 @@ FISSURE_SIMD_KERNEL void element_lanes(
 
 }  // namespace
 
+void CorotatedElasticity::set_material(const Material& material) {
+  validate(material);
+  m_mu = material.mu();
+  m_lambda = material.lambda();
+}
+
 CorotatedElasticity::CorotatedElasticity(const Matrix3Xd& rest, const Matrix4Xu& tets, const Material& material)
     : m_tets(tets), m_mu(material.mu()), m_lambda(material.lambda()) {
   validate(material);

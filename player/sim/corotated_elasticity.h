@@ -71,6 +71,9 @@ class CorotatedElasticity {
   /// degenerate rest tet or an invalid material.
   CorotatedElasticity(const Matrix3Xd& rest, const Matrix4Xu& tets, const Material& material);
 
+  /// New stiffness (E, ν) from the next evaluation on; throws fissure::Error for an invalid material.
+  void set_material(const Material& material);
+
   [[nodiscard]] std::size_t tet_count() const { return m_volume.size(); }
   [[nodiscard]] double rest_volume(TetIndex t) const { return m_volume[t]; }
   [[nodiscard]] const Matrix4Xu& tets() const { return m_tets; }

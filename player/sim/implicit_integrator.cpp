@@ -68,6 +68,15 @@ ImplicitIntegrator::ImplicitIntegrator(const Matrix3Xd& rest, const Matrix4Xu& t
   lump_masses();
 }
 
+void ImplicitIntegrator::set_material(const Material& material) {
+  m_elasticity.set_material(material);  // validates first: nothing changes on an error
+  const double density_ratio = material.density / m_material.density;
+  for (double& mass : m_tet_mass) mass *= density_ratio;
+  lump_masses();
+  m_material = material;
+  m_pattern_dirty = true;  // the matrix's values change everywhere: factor afresh
+}
+
 void ImplicitIntegrator::lump_masses() {
   m_mass = Eigen::VectorXd::Zero(m_positions.cols());
   const Matrix4Xu& tets = m_elasticity.tets();

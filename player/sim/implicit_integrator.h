@@ -83,6 +83,11 @@ class ImplicitIntegrator {
   void set_positions(const Matrix3Xd& x);
   void set_velocities(const Matrix3Xd& v);
 
+  /// A new material from the next step on (a viewer's live sliders): stiffness, density
+  /// (node masses scale with it; the momentum they carry is not kept) and damping. The
+  /// next solve refactors. Throws fissure::Error for an invalid material.
+  void set_material(const Material& material);
+
   [[nodiscard]] Index node_count() const { return static_cast<Index>(m_positions.cols()); }
   [[nodiscard]] const Matrix3Xd& rest_positions() const { return m_rest; }
   [[nodiscard]] const Eigen::VectorXd& node_masses() const { return m_mass; }

@@ -304,6 +304,27 @@ void World::set_settings(const WorldSettings& settings) {
   for (Body& b : m_bodies) b.fracture.max_splits_per_step = settings.max_splits_per_step;
 }
 
+void World::set_material(Index body, const Material& material, double toughness) {
+  Body& b = m_bodies.at(body);
+  if (!(toughness >= 0.0)) {
+    throw Error("body '" + b.name + "': toughness " + std::to_string(toughness) + " is not ≥ 0",
+                "give a toughness in newtons, ∞ for none");
+  }
+  b.integrator().set_material(material);
+  b.fracture.toughness = toughness;
+}
+
+void World::add_projectile(Projectile projectile) {
+  if (!projectile.position.allFinite() || !projectile.velocity.allFinite() || !(projectile.radius > 0.0) ||
+      !(projectile.mass > 0.0) || !std::isfinite(projectile.radius) || !std::isfinite(projectile.mass)) {
+    throw Error("a projectile needs a finite position and velocity and a positive, finite radius and mass",
+                "check the shot's settings");
+  }
+  projectile.launch_time = m_time;
+  projectile.launched = false;
+  m_projectiles.push_back(projectile);
+}
+
 void World::set_velocities(Index body, const Matrix3Xd& velocities) {
   m_bodies.at(body).integrator().set_velocities(velocities);
 }

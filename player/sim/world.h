@@ -147,6 +147,13 @@ class World {
   /// Replaces a body's node velocities (3×#N, finite): an external push, such as a
   /// viewer's drag or a test's kick. It is work put into the world.
   void set_velocities(Index body, const Matrix3Xd& velocities);
+  /// A body's new material and toughness [N] from the next step on (a viewer's live
+  /// sliders). Throws fissure::Error for an invalid value; then nothing changed.
+  void set_material(Index body, const Material& material, double toughness);
+  /// Adds a projectile that enters at the next step (a viewer's shot). Its kinetic
+  /// energy is work put into the world. Throws fissure::Error for a non-finite state,
+  /// a radius or mass that is not positive.
+  void add_projectile(Projectile projectile);
   /// Applies new settings from the next step on (a viewer's live dt, tolerance or
   /// solver). Throws fissure::Error for a dt that is not positive and finite.
   void set_settings(const WorldSettings& settings);
