@@ -2,7 +2,9 @@
 # Installs the Debian 12 packages Fissure needs to build, test and run.
 # Idempotent: packages already present are skipped, so a second run is quick.
 # python3-glad: generates the GL 4.5 core loader at build time; OSMesa and EGL (Mesa,
-# llvmpipe) are the headless renderers; ffmpeg encodes `run --video`.
+# llvmpipe) are the headless renderers; ffmpeg encodes `run --video`; GLFW and Dear
+# ImGui (libimgui-dev) make `view`'s window and panel, and Xvfb lets its tests open a
+# window without a display.
 # libopenblas0-serial: CHOLMOD's dense kernels; serial so that it neither fights TBB's
 # threads nor changes results with the thread count (the reference BLAS is 3× slower).
 set -euo pipefail
