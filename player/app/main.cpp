@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0L, 100'000'000L));
   view->add_option("--screenshot", screenshot, "At exit, write the last frame (without the panel) as PNG");
   view->add_option("--script", script,
-                   "Take actions from a file, one per frame: wait N, pause, resume, step N, fire X Y, toggle FEATURE, "
+                   "Take actions from a file, one per frame: wait N, pause, resume, step N, fire X Y, shot MASS RADIUS SPEED, toggle FEATURE, "
                    "set OBJECT PARAM VALUE, screenshot PATH, quit (see player/view/view_script.h)");
   view->add_flag("--no-panel", no_panel, "Hide the panel (H toggles it)");
   view->footer(

@@ -54,6 +54,7 @@ ImplicitIntegrator::ImplicitIntegrator(const Matrix3Xd& rest, const Matrix4Xu& t
                 "pass one fraction and one barycentric centre of mass per tet");
   }
   m_tet_mass.resize(tet_count);
+  m_solid_fraction.assign(tet_count, 1.0);
   m_corner_weight.assign(tet_count, Vec4::Constant(0.25));
   for (TetIndex t = 0; t < tet_count; ++t) {
     double fraction = 1.0;
@@ -63,18 +64,25 @@ ImplicitIntegrator::ImplicitIntegrator(const Matrix3Xd& rest, const Matrix4Xu& t
       if (!weight.allFinite()) weight = Vec4::Constant(0.25);
       m_corner_weight[t] = weight / weight.sum();
     }
-    m_tet_mass[t] = material.density * m_elasticity.rest_volume(t) * fraction;
+    m_solid_fraction[t] = fraction;
   }
-  lump_masses();
+  compute_tet_masses(material.density);
 }
 
 void ImplicitIntegrator::set_material(const Material& material) {
   m_elasticity.set_material(material);  // validates first: nothing changes on an error
-  const double density_ratio = material.density / m_material.density;
-  for (double& mass : m_tet_mass) mass *= density_ratio;
-  lump_masses();
+  compute_tet_masses(material.density);
   m_material = material;
   m_pattern_dirty = true;  // the matrix's values change everywhere: factor afresh
+}
+
+void ImplicitIntegrator::compute_tet_masses(double density) {
+  // One expression for the constructor and set_material(): a world edited to a material
+  // steps bit for bit as one built with it.
+  for (TetIndex t = 0; t < m_elasticity.tet_count(); ++t) {
+    m_tet_mass[t] = density * m_elasticity.rest_volume(t) * m_solid_fraction[t];
+  }
+  lump_masses();
 }
 
 void ImplicitIntegrator::lump_masses() {

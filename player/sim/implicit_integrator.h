@@ -184,6 +184,7 @@ class ImplicitIntegrator {
   SolveStatus solve_iteratively(const StepSettings& settings, const Eigen::VectorXd& b, Eigen::VectorXd& dv);
   /// v += Δv, x += h v on the free nodes; remembers Δv for the next warm start.
   void advance(const Eigen::VectorXd& dv, double h);
+  void compute_tet_masses(double density);  ///< then lumps them
   void lump_masses();
   void check_state(const Matrix3Xd& m, const char* what) const;
 
@@ -192,7 +193,8 @@ class ImplicitIntegrator {
   CorotatedElasticity m_elasticity;
   Material m_material;
   Matrix3Xd m_rest;
-  std::vector<double> m_tet_mass;            ///< #T [kg]
+  std::vector<double> m_tet_mass;            ///< #T [kg]: density × rest volume × solid fraction
+  std::vector<double> m_solid_fraction;      ///< #T, to recompute the masses for a new density
   std::vector<Vec4> m_corner_weight;         ///< #T, each sums to 1
   Eigen::VectorXd m_mass;                    ///< #N lumped masses [kg]
   std::vector<std::uint8_t> m_pinned;

@@ -69,6 +69,12 @@ ScriptAction parse_line(const std::string& command, LineReader& in) {
     a.kind = Kind::Fire;
     a.x = in.number<float>("a pixel's x");
     a.y = in.number<float>("a pixel's y");
+  } else if (command == "shot") {
+    a.kind = Kind::Shot;
+    a.mass = in.number<float>("a mass [kg]");
+    a.radius = in.number<float>("a radius [m]");
+    a.speed = in.number<float>("a speed [m/s]");
+    if (!(a.mass > 0 && a.radius > 0 && a.speed > 0)) throw Error(in.where() + ": a shot's mass, radius and speed must be > 0", "e.g. shot 2 0.05 15");
   } else if (command == "toggle") {
     a.kind = Kind::Toggle;
     a.name = in.word("a feature");
@@ -90,7 +96,7 @@ ScriptAction parse_line(const std::string& command, LineReader& in) {
     a.name = in.word("a PNG path");
   } else {
     throw Error(in.where() + ": unknown action '" + command + "'",
-                "actions: wait, pause, resume, step, fire, toggle, set, screenshot, quit");
+                "actions: wait, pause, resume, step, fire, shot, toggle, set, screenshot, quit");
   }
   in.end();
   return a;

@@ -7,6 +7,7 @@
 ///   pause | resume
 ///   step N                    take N physics steps now (paused or not)
 ///   fire X Y                  shoot a projectile through pixel (X, Y), from the top left
+///   shot MASS RADIUS SPEED    what the next shots are [kg, m, m/s] (the panel's Shot)
 ///   toggle FEATURE            walls, normal-mapping, tessellation, cage, spheres,
 ///                             replication-colors, fragment-colors
 ///   set BODY PARAM VALUE      youngs_modulus, poisson_ratio, density, toughness or
@@ -21,10 +22,11 @@
 namespace fissure::view {
 
 struct ScriptAction {
-  enum class Kind { Wait, Pause, Resume, Step, Fire, Toggle, Set, Screenshot, Quit };
+  enum class Kind { Wait, Pause, Resume, Step, Fire, Shot, Toggle, Set, Screenshot, Quit };
   Kind kind = Kind::Wait;
   long count = 1;               ///< wait, step
   float x = 0, y = 0;           ///< fire [pixels]
+  float mass = 0, radius = 0, speed = 0;  ///< shot
   std::string name;             ///< toggle: the feature; set: the body; screenshot: the path
   std::string parameter;        ///< set
   double value = 0;             ///< set

@@ -247,6 +247,7 @@ bool Viewer::script_step() {
     case Kind::Resume: m_panel.paused = false; break;
     case Kind::Step: m_panel.pending_steps += a.count; break;
     case Kind::Fire: fire(a.x, a.y); break;
+    case Kind::Shot: m_panel.shot = {a.mass, a.radius, a.speed}; break;
     case Kind::Toggle: {
       bool* feature = m_panel.features.find(a.name);
       *feature = !*feature;

@@ -169,6 +169,60 @@ TEST(World, AFailedStepLeavesTheWorldExactlyAsItWas) {
   EXPECT_EQ(failures, 3);
 }
 
+// A viewer's live material: set before the first step, the world must step exactly as
+// one built with that material (stiffness, masses, damping, toughness and the factor all
+// follow); a bad value changes nothing.
+TEST(World, ANewMaterialActsFromTheNextStepAsIfTheWorldWereBuiltWithIt) {
+  testing::SceneParts original = testing::breaking_bar();
+  const sim::Material changed{.density = 2500, .youngs_modulus = 7e5, .poisson_ratio = 0.41, .rayleigh_mass = 0.5};
+  testing::SceneParts built = original;
+  built.bodies[0].material = changed;
+  built.bodies[0].toughness = 9.0;
+  const auto edited = original.make();
+  const auto reference = built.make();
+  edited->set_material(0, changed, 9.0);
+  for (int step = 0; step < 60; ++step) {
+    ASSERT_TRUE(edited->step().status.ok());
+    ASSERT_TRUE(reference->step().status.ok());
+  }
+  EXPECT_EQ(edited->bodies()[0].integrator().positions(), reference->bodies()[0].integrator().positions());
+  EXPECT_EQ(edited->fragment_count(), reference->fragment_count());
+  EXPECT_GT(reference->bodies()[0].integrator().node_count(), static_cast<Index>(original.bodies[0].rest.cols()))
+      << "the comparison should cover splits";
+
+  const Eigen::VectorXd masses = edited->bodies()[0].integrator().node_masses();
+  sim::Material invalid = changed;
+  invalid.poisson_ratio = 0.5;
+  EXPECT_THROW(edited->set_material(0, invalid, 9.0), Error);
+  EXPECT_THROW(edited->set_material(0, changed, -1.0), Error);
+  EXPECT_EQ(edited->bodies()[0].integrator().node_masses(), masses);
+  EXPECT_EQ(edited->bodies()[0].integrator().material().poisson_ratio, changed.poisson_ratio);
+}
+
+// A viewer's shot enters at the next step and moves like the scene's projectiles.
+TEST(World, AnAddedProjectileEntersAtTheNextStep) {
+  const auto world = testing::breaking_bar().make();
+  const std::size_t before = world->projectiles().size();
+  sim::Projectile shot;
+  shot.position = Vec3(0.3, 0.15, 3.0);
+  shot.velocity = Vec3(0, 0, -5);
+  shot.radius = 0.05;
+  world->add_projectile(shot);
+  ASSERT_EQ(world->projectiles().size(), before + 1);
+  EXPECT_FALSE(world->projectiles().back().launched);
+  ASSERT_TRUE(world->step().status.ok());
+  const sim::Projectile& p = world->projectiles().back();
+  EXPECT_TRUE(p.launched);
+  const double dt = world->settings().step.dt;
+  EXPECT_NEAR(p.position.z(), 3.0 + dt * (-5.0 - 9.81 * dt), 1e-12);
+  sim::Projectile bad = shot;
+  bad.radius = 0.0;
+  EXPECT_THROW(world->add_projectile(bad), Error);
+  bad = shot;
+  bad.velocity.x() = NAN;
+  EXPECT_THROW(world->add_projectile(bad), Error);
+}
+
 TEST(World, TheFrameViewFollowsPositionsSplitsAndFragments) {
   testing::SceneParts scene = testing::breaking_bar();
   scene.settings.self_collision = false;

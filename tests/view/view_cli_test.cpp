@@ -1,0 +1,145 @@
+// `fissure-player view` end to end, in a real window under Xvfb (Debian `xvfb`): its
+// screenshot against the headless render of the same step, scripted shots and toggles,
+// and the errors a user meets. Skipped, saying why, where xvfb-run is missing.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <regex>
+
+#include "bake/bake.h"
+#include "formats/bundle.h"
+#include "formats/image.h"
+#include "tests/support/image_compare.h"
+#include "tests/support/procedural.h"
+#include "tests/support/run_command.h"
+#include "tests/support/temp_dir.h"
+
+namespace fissure {
+namespace {
+
+using testing::quoted;
+
+constexpr const char* kSize = "160x120";
+
+bool have_xvfb() { return std::system("command -v xvfb-run > /dev/null 2>&1") == 0; }
+
+testing::CommandResult in_window(const std::string& arguments) {
+  return testing::run_command("xvfb-run -a -s '-screen 0 640x480x24' " + std::string(FISSURE_PLAYER_EXE) + " " +
+                              arguments);
+}
+
+/// A breakable sphere of 1,280 triangles in a 4³-cube cage, resting on the ground.
+class ViewCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    bake::BakeOptions options;
+    const formats::Bundle bundle = bake::embed(testing::icosphere(3, 0.4, Vec3(0.5, 0.5, 0.5)),
+                                               testing::grid_cage(Vec3(0, 0, 0), Vec3(1, 1, 1), 4, 4, 4), options,
+                                               "icosphere", "grid");
+    formats::write_bundle(bundle_path(), bundle);
+  }
+  static std::filesystem::path bundle_path() {
+    static const testing::TempDir shared;
+    return shared.path() / "sphere.h5";
+  }
+  void SetUp() override {
+    if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed (scripts/install-deps.sh installs it)";
+  }
+
+  /// The scene, with `material_keys` added to the ball's material.
+  std::filesystem::path scene(const std::string& material_keys = "") {
+    const std::filesystem::path path = dir.path() / "scene.toml";
+    std::ofstream(path) << "[solver]\ndt = 0.004\n\n[features]\nfracture = true\n\n[environment.ground]\n\n[[object]]\nname = \"ball\"\n"
+                        << "bundle = " << quoted(bundle_path()) << "\ntranslation = [0, 0, 0.2]\n\n"
+                        << "[object.material]\nyoungs_modulus = 2e4\npoisson_ratio = 0.3\ndensity = 500\n"
+                        << material_keys << "\n";
+    return path;
+  }
+  std::filesystem::path script(const std::string& text) {
+    const std::filesystem::path path = dir.path() / "actions.txt";
+    std::ofstream(path) << text;
+    return path;
+  }
+  /// `view` with the script, fixed steps, no panel; returns its result.
+  testing::CommandResult view(const std::string& material_keys, const std::string& actions, int frames) {
+    return in_window("view " + quoted(scene(material_keys)) + " --size " + kSize + " --no-panel --steps-per-frame 1" +
+                     " --exit-after-frames " + std::to_string(frames) + " --script " + quoted(script(actions)));
+  }
+  static long fragments(const std::string& output) {
+    std::smatch match;
+    const std::regex summary(R"(view +\d+ frames, \d+ steps, t = [0-9.]+ s, (\d+) fragments)");
+    return std::regex_search(output, match, summary) ? std::stol(match[1]) : -1;
+  }
+
+  testing::TempDir dir;
+};
+
+TEST_F(ViewCli, TheScreenshotMatchesTheHeadlessRenderOfTheSameStep) {
+  const auto shot = dir.path() / "shot.png", frames = dir.path() / "frames";
+  const auto viewed = in_window("view " + quoted(scene()) + " --size " + kSize +
+                                " --steps-per-frame 1 --exit-after-frames 12 --screenshot " + quoted(shot));
+  ASSERT_EQ(viewed.exit_code, 0) << viewed.output;
+  EXPECT_NE(viewed.output.find("12 frames, 12 steps"), std::string::npos) << viewed.output;
+  // dt = 0.004 s and 250 frames/s: headless frame 12 is the state after 12 steps.
+  const auto headless = testing::run_command(std::string(FISSURE_PLAYER_EXE) + " run " + quoted(scene()) +
+                                             " --steps 12 --fps 250 --size " + kSize + " --frames " + quoted(frames));
+  ASSERT_EQ(headless.exit_code, 0) << headless.output;
+  const formats::Image window = formats::read_png(shot), offscreen = formats::read_png(frames / "frame-00012.png");
+  const testing::ImageDifference d = testing::compare_images(window, offscreen, {});
+  EXPECT_LE(d.fraction(), 1e-3) << d.failing << " pixels differ";
+  std::size_t foreground = 0;
+  for (std::size_t i = 0; i < window.rgba.size(); i += 4) foreground += window.rgba[i] != window.rgba[0];
+  EXPECT_GT(foreground, window.rgba.size() / 4 / 20) << "the ball should fill part of the frame";
+}
+
+TEST_F(ViewCli, AShotThroughTheMiddleBreaksTheBallAndNothingElseDoes) {
+  const std::string breakable = "toughness = 0.5\n";
+  const auto quiet = view(breakable, "wait 40\n", 40);
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.output;
+  EXPECT_EQ(fragments(quiet.output), 1) << quiet.output;
+  const auto hit = view(breakable, "set ball density 500\nshot 5 0.08 60\nfire 80 60\nwait 40\n", 40);
+  ASSERT_EQ(hit.exit_code, 0) << hit.output;
+  EXPECT_GT(fragments(hit.output), 1) << hit.output;
+  EXPECT_NE(hit.output.find("1 shots"), std::string::npos) << hit.output;
+}
+
+TEST_F(ViewCli, TogglingWallsChangesTheImageOnlyWhereFractureOpenedFaces) {
+  const auto a = dir.path() / "a.png", b = dir.path() / "b.png", c = dir.path() / "c.png";
+  const std::string shots = "screenshot " + a.string() + "\ntoggle walls\nscreenshot " + b.string() +
+                            "\ntoggle walls\nscreenshot " + c.string() + "\n";
+  // Unbroken: no wall anywhere, so walls off changes nothing.
+  auto result = view("", "pause\n" + shots, 8);
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_EQ(formats::read_png(a).rgba, formats::read_png(b).rgba);
+  // Broken by a shot: walls off shows the cracks' insides; on again, the same image.
+  result = view("toughness = 0.5\n", "shot 5 0.08 60\nfire 80 60\nwait 30\npause\n" + shots, 45);
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  ASSERT_GT(fragments(result.output), 1) << result.output;
+  EXPECT_NE(formats::read_png(a).rgba, formats::read_png(b).rgba);
+  EXPECT_EQ(formats::read_png(a).rgba, formats::read_png(c).rgba);
+}
+
+TEST_F(ViewCli, ScriptErrorsNameTheLineAndExitOne) {
+  auto result = view("", "wait 2\nset nobody toughness 3\n", 10);
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("actions.txt:2: the scene has no object named 'nobody'"), std::string::npos)
+      << result.output;
+  result = view("", "explode\n", 10);
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("actions.txt:1: unknown action 'explode'"), std::string::npos) << result.output;
+  result = view("", "set ball poisson_ratio 0.7\n", 10);
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("oisson"), std::string::npos) << result.output;
+}
+
+TEST(ViewWithoutDisplay, SaysToUseRunFrames) {
+  const auto result = testing::run_command("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(FISSURE_PLAYER_EXE) +
+                                           " view no-such-scene-needed.toml");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  // The scene is read first: a missing scene is named before the display is looked for.
+  EXPECT_NE(result.output.find("no-such-scene-needed.toml"), std::string::npos) << result.output;
+}
+
+}  // namespace
+}  // namespace fissure
