@@ -62,8 +62,11 @@ struct RenderPair {
   formats::Image embedded, direct;
 };
 
-/// Renders the sphere's world embedded, then the CPU-mapped mesh with the same camera.
-RenderPair render_both(const sim::World& world, render::Backend backend = render::Backend::OSMesa) {
+/// Renders the sphere's world embedded, with `set_view`'s settings, then `expected` (what
+/// it must equal, drawn on the CPU as plain meshes) in its place, with the same camera.
+RenderPair render_against(const sim::World& world, const std::function<void(render::Renderer&)>& set_view,
+                          const std::vector<render::PlainMesh>& expected,
+                          render::Backend backend = render::Backend::OSMesa) {
   const auto context = render::create_headless_context(backend);
   render::Renderer renderer(kSize, kSize);
   const std::vector<player::BodyAssets> assets{{"sphere.h5", sphere().bundle, 1.0, {}, {}}};
@@ -73,12 +76,19 @@ RenderPair render_both(const sim::World& world, render::Backend backend = render
   const Eigen::AlignedBox3f box(Eigen::Vector3f::Constant(0.05f), Eigen::Vector3f::Constant(0.95f));
   renderer.set_camera(render::frame_box(box, render::Vec3f(-0.55f, 0.75f, -0.38f), render::Vec3f::UnitZ(), 35.0f, 1.0f));
   RenderPair out{{kSize, kSize, {}}, {kSize, kSize, {}}};
+  set_view(renderer);
   renderer.render(out.embedded.rgba);
-  const sim::ImplicitIntegrator& body = world.bodies()[0].integrator();
   renderer.set_body_visible(0, false);
-  renderer.add_plain(testing::mapped_mesh(sphere().bundle, body.positions(), body.elasticity().tets()));
+  for (const render::PlainMesh& mesh : expected) renderer.add_plain(mesh);
   renderer.render(out.direct.rgba);
   return out;
+}
+
+/// Renders the sphere's world embedded, then the CPU-mapped mesh with the same camera.
+RenderPair render_both(const sim::World& world, render::Backend backend = render::Backend::OSMesa) {
+  const sim::ImplicitIntegrator& body = world.bodies()[0].integrator();
+  return render_against(world, [](render::Renderer&) {},
+                        {testing::mapped_mesh(sphere().bundle, body.positions(), body.elasticity().tets())}, backend);
 }
 
 void expect_match(const RenderPair& pair, const std::string& name, const testing::ImageTolerance& tolerance = {}) {
@@ -123,25 +133,6 @@ TEST(Render, UnderABendTheEmbeddedMeshHasNoHoles) {
   expect_match(pair, "bent", {.max_abs = 24, .shift = 1, .max_failing_fraction = 5e-3});
 }
 
-/// The debug views drawn by the renderer, and what they must equal drawn on the CPU as
-/// plain meshes (same camera): the pair compared like the embedded mesh.
-RenderPair render_debug_view(const sim::World& world, const std::function<void(render::Renderer&)>& set_view,
-                             const std::vector<render::PlainMesh>& expected) {
-  const auto context = render::create_headless_context(render::Backend::OSMesa);
-  render::Renderer renderer(kSize, kSize);
-  const std::vector<player::BodyAssets> assets{{"sphere.h5", sphere().bundle, 1.0, {}, {}}};
-  player::SceneView view(world, assets, renderer);
-  const Eigen::AlignedBox3f box(Eigen::Vector3f::Constant(0.05f), Eigen::Vector3f::Constant(0.95f));
-  renderer.set_camera(render::frame_box(box, render::Vec3f(-0.55f, 0.75f, -0.38f), render::Vec3f::UnitZ(), 35.0f, 1.0f));
-  RenderPair out{{kSize, kSize, {}}, {kSize, kSize, {}}};
-  set_view(renderer);
-  renderer.render(out.embedded.rgba);
-  renderer.set_body_visible(0, false);
-  for (const render::PlainMesh& mesh : expected) renderer.add_plain(mesh);
-  renderer.render(out.direct.rgba);
-  return out;
-}
-
 /// The world's collision spheres as plain spheres placed on the CPU.
 std::vector<render::PlainMesh> spheres_on_cpu(const sim::World& world) {
   const sim::Body& body = world.bodies()[0];
@@ -164,11 +155,11 @@ TEST(Render, TheSphereViewDrawsThePhysicsCollisionSpheresWhereTheCpuPlacesThem) 
   const auto show_spheres = [](render::Renderer& r) { r.set_spheres_visible(true); };
   const auto rest = sphere().world();
   ASSERT_GT(rest->bodies()[0].spheres.size(), 100u);
-  expect_match(render_debug_view(*rest, show_spheres, spheres_on_cpu(*rest)), "spheres-rest");
+  expect_match(render_against(*rest, show_spheres, spheres_on_cpu(*rest)), "spheres-rest");
   Mat3 affine;
   affine << 1.3, 0.4, 0.0, 0.0, 0.8, 0.2, 0.1, 0.0, 1.1;
   const auto sheared = sphere().world(affine * sphere().cage.rest_positions);
-  expect_match(render_debug_view(*sheared, show_spheres, spheres_on_cpu(*sheared)), "spheres-affine");
+  expect_match(render_against(*sheared, show_spheres, spheres_on_cpu(*sheared)), "spheres-affine");
 }
 
 TEST(Render, TheReplicationViewColoursEachTriangleByHowManyTetsItIsDrawnIn) {
@@ -195,7 +186,7 @@ TEST(Render, TheReplicationViewColoursEachTriangleByHowManyTetsItIsDrawnIn) {
   EXPECT_GT(count[1], 0u);
   EXPECT_GT(count[2] + count[3] + count[4], 0u);
   const auto colour_replicas = [](render::Renderer& r) { r.set_replication_colors(true); };
-  expect_match(render_debug_view(*world, colour_replicas, parts), "replication");
+  expect_match(render_against(*world, colour_replicas, parts), "replication");
 }
 
 // A forced fracture: the cage cut along x = 0.5, its right half moved out of view, and
