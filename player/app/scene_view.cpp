@@ -232,6 +232,8 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
     m_camera.near_plane = std::max(1e-3f * distance, 0.01f * size);
     m_camera.far_plane = distance + 100.0f * size;
   }
+  m_start_camera = m_camera;
+  m_start_follow = m_follow;
   render::Light light;
   light.towards = z_to_up * light.towards;
   renderer.set_light(light);
@@ -242,6 +244,11 @@ void SceneView::set_camera(const render::Camera& camera) {
   m_follow = false;
   m_camera = m_current = camera;
   m_renderer.set_camera(camera);
+}
+
+void SceneView::restore_camera() {
+  m_camera = m_start_camera;
+  m_follow = m_start_follow;
 }
 
 void SceneView::update(const sim::World& world) {

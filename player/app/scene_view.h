@@ -38,6 +38,8 @@ class SceneView {
   [[nodiscard]] const render::Camera& camera() const { return m_current; }
   /// Places the camera where a user put it; it stays there (no longer follows the bodies).
   void set_camera(const render::Camera& camera);
+  /// Back to the camera the view started with (framed and following, or the scene's).
+  void restore_camera();
 
  private:
   render::Renderer& m_renderer;
@@ -49,6 +51,8 @@ class SceneView {
   bool m_follow = true;                    ///< false: the scene placed the camera
   Vec3 m_start_centre;                     ///< the bodies' centre at the start
   render::Camera m_current;                ///< as the last update() placed it
+  render::Camera m_start_camera;           ///< m_camera as the constructor made it
+  bool m_start_follow = true;              ///< m_follow likewise
 };
 
 }  // namespace fissure::player

@@ -136,9 +136,9 @@ void Viewer::on_key(int key) {
     case GLFW_KEY_SPACE: m_panel.paused = !m_panel.paused; break;
     case GLFW_KEY_N: m_panel.pending_steps += 1; break;
     case GLFW_KEY_R: m_panel.reset_requested = true; break;
-    case GLFW_KEY_F:  // back to the scene's own framing, following the bodies
+    case GLFW_KEY_F:  // back to the scene's own framing (following the bodies); the world goes on
       m_camera.reset();
-      m_panel.reset_requested = true;
+      m_view->restore_camera();
       break;
     case GLFW_KEY_P: m_panel.screenshot_requested = true; break;
     case GLFW_KEY_H: m_options.panel = !m_options.panel; break;
