@@ -85,7 +85,7 @@ void write_file_atomically(const std::filesystem::path& path, const std::functio
 Handle open_file_read_only(const std::string& path) {
   silence_library_errors();
   if (H5Fis_hdf5(path.c_str()) <= 0) {
-    throw Error(path + ": not an HDF5 file (or unreadable)", "pass a bundle written by fissure-bake");
+    throw Error(path + ": not an HDF5 file (or unreadable)", "check the path: bundles and trajectories are HDF5 files");
   }
   Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.valid()) throw Error(path + ": cannot open the HDF5 file");

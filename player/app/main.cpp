@@ -80,6 +80,10 @@ int main(int argc, char** argv) {
                    "Take actions from a file, one per frame: wait N, pause, resume, step N, fire X Y, shot MASS RADIUS SPEED, toggle FEATURE, "
                    "set OBJECT PARAM VALUE, screenshot PATH, quit (see player/view/view_script.h)");
   view->add_flag("--no-panel", no_panel, "Hide the panel (H toggles it)");
+  std::string replay;
+  view->add_option("--replay", replay,
+                   "Play a trajectory recorded by `run --trajectory` with this scene, on a timeline to scrub "
+                   "(left/right arrows: a frame back/on)");
   view->footer(
       "Mouse: left drag orbits, right or middle drag (or shift + left) pans, wheel zooms, a left click fires a "
       "projectile through the cursor.\nKeys: space pause/resume, N one step, R reset, F the scene's framing, "
@@ -98,6 +102,7 @@ int main(int argc, char** argv) {
       view_options.screenshot = screenshot;
       view_options.script = script;
       view_options.panel = !no_panel;
+      view_options.replay = replay;
       return view::view_scene(formats::read_scene(view_scene_path), view_options);
     }
     if (no_render && (!frames.empty() || !video.empty())) {

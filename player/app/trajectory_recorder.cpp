@@ -1,10 +1,18 @@
 #include "player/app/trajectory_recorder.h"
 
 #include <algorithm>
+#include <limits>
 
 #include "common/error.h"
 
 namespace fissure::player {
+
+namespace {
+
+/// A projectile not launched yet is not in the scene (formats/trajectory.h).
+constexpr double kNotThere = std::numeric_limits<double>::quiet_NaN();
+
+}  // namespace
 
 TrajectoryRecorder::TrajectoryRecorder(std::filesystem::path path, std::string scene_name, long every)
     : m_path(std::move(path)), m_every(every) {
@@ -30,6 +38,11 @@ void TrajectoryRecorder::record(const sim::World& world, long step) {
   for (std::size_t b = 0; b < world.bodies().size(); ++b) {
     m_trajectory.bodies[b].frames.push_back(world.bodies()[b].integrator().positions());
   }
+  Matrix3Xd& projectiles = m_trajectory.projectiles.emplace_back(3, static_cast<Eigen::Index>(world.projectiles().size()));
+  for (std::size_t j = 0; j < world.projectiles().size(); ++j) {
+    const sim::Projectile& p = world.projectiles()[j];
+    projectiles.col(static_cast<Eigen::Index>(j)) = p.launched ? p.position : Vec3::Constant(kNotThere);
+  }
   m_last_recorded = step;
 }
 
@@ -39,7 +52,8 @@ void TrajectoryRecorder::on_step(const sim::World& world, const sim::StepReport&
     std::vector<NodeIndex>& from = m_split_from[body];
     from.resize(std::max<std::size_t>(from.size(), split.added + 1), kInvalidIndex);
     from[split.added] = split.node;
-    m_trajectory.splits.push_back({at, world.time(), body, split.node, split.added, split.normal, split.eigenvalue});
+    m_trajectory.splits.push_back(
+        {at, world.time(), body, split.node, split.added, split.normal, split.eigenvalue, split.moved});
   }
   for (const auto& [body, face] : report.exposed) {
     m_trajectory.exposed_faces.push_back({at, body, face.tet, static_cast<std::uint8_t>(face.face)});

@@ -249,7 +249,8 @@ void fracture(ImplicitIntegrator& body, FractureTopology& topology, const Fractu
     if (positive_side.empty() || positive_side.size() == topology.incident(node).size()) continue;
     const NodeIndex added = body.split_node(node, positive_side);
     topology.on_split(node, added, positive_side, body.elasticity().tets(), newly_exposed);
-    splits.push_back({node, added, normal, field.eigenvalue[node]});
+    NodeSplit& split = splits.emplace_back(NodeSplit{node, added, normal, field.eigenvalue[node], {}});
+    for (const auto& slot : positive_side) split.moved.push_back(slot.first);
     ++done;
   }
   if (done > 0) topology.update_fragments(body.elasticity().tets());

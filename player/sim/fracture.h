@@ -91,6 +91,7 @@ struct NodeSplit {
   NodeIndex added = kInvalidIndex;  ///< the new node
   Vec3 normal = Vec3::Zero();       ///< fracture plane normal (ς's largest eigenvector)
   double eigenvalue = 0;            ///< ς's largest eigenvalue [N]
+  std::vector<TetIndex> moved;      ///< the tets that now hold `added` in `node`'s place (a replay needs them)
 };
 
 /// The largest eigenvalue and its eigenvector of every node's separation tensor, from

@@ -71,6 +71,12 @@ struct StepFailure {
 
 [[nodiscard]] const char* to_string(StepOutcome outcome);
 
+/// A split as a recording keeps it, for replaying (World::redo_splits).
+struct RecordedSplit {
+  NodeIndex node = kInvalidIndex, added = kInvalidIndex;
+  std::span<const TetIndex> moved;  ///< the tets that took `added` in `node`'s place
+};
+
 /// What one step did, for reports.
 struct StepReport {
   StepStatus status;
@@ -157,6 +163,19 @@ class World {
   /// Applies new settings from the next step on (a viewer's live dt, tolerance or
   /// solver). Throws fissure::Error for a dt that is not positive and finite.
   void set_settings(const WorldSettings& settings);
+
+  // Replay (player/app/replay.h: a viewer scrubbing a recorded run). The world is posed,
+  // not stepped: topology changes exactly as fracture made it, positions as recorded.
+  /// Applies `splits` to a body in order, each exactly as fracture did. Throws
+  /// fissure::Error, before changing anything, when one does not fit the body (a moved
+  /// tet that does not hold the node, or an added node that is not the next one).
+  void redo_splits(Index body, std::span<const RecordedSplit> splits);
+  /// Undoes `splits`, the body's newest, last first.
+  void undo_splits(Index body, std::span<const RecordedSplit> splits);
+  /// Places a body's nodes (3×#N for its current node count); its velocities become 0.
+  void pose(Index body, const Matrix3Xd& positions);
+  /// Places the clock and replaces the projectiles' states (as many as the world has).
+  void pose(double time, std::span<const Projectile> projectiles);
 
   [[nodiscard]] double kinetic_energy() const;
   [[nodiscard]] double elastic_energy() const;

@@ -45,6 +45,25 @@ void clock_section(PanelState& s, const sim::World& world) {
   ImGui::SliderInt("steps/frame", &s.steps_per_frame, 0, 16, s.steps_per_frame == 0 ? "real time" : "%d");
 }
 
+/// A replay's clock: the recording's timeline instead of the solver's.
+bool replay_section(PanelState& s, const sim::World& world) {
+  ImGui::Text("replay: t = %.4f s, step %ld, frame %d of %zu", world.time(), s.replay.step, s.replay.frame,
+              s.replay.frames);
+  if (ImGui::Button(s.paused ? "Play (space)" : "Pause (space)")) s.paused = !s.paused;
+  ImGui::SameLine();
+  if (ImGui::Button("<")) --s.pending_steps;
+  ImGui::SameLine();
+  if (ImGui::Button("> (N)")) ++s.pending_steps;
+  ImGui::SameLine();
+  if (ImGui::Button("Start (R)")) s.reset_requested = true;
+  ImGui::SameLine();
+  if (ImGui::Button("Screenshot (P)")) s.screenshot_requested = true;
+  const bool moved = ImGui::SliderInt("frame", &s.replay.frame, 0, static_cast<int>(s.replay.frames) - 1);
+  ImGui::SliderFloat("time scale", &s.time_scale, 0.01f, 1.0f, "%.2fx", ImGuiSliderFlags_Logarithmic);
+  ImGui::SliderInt("frames/frame", &s.steps_per_frame, 0, 16, s.steps_per_frame == 0 ? "real time" : "%d");
+  return moved;
+}
+
 void shot_section(PanelState& s) {
   if (!ImGui::CollapsingHeader("Shot (click the scene)")) return;
   ImGui::SliderFloat("mass [kg]", &s.shot.mass, 0.01f, 100.0f, "%.2f", ImGuiSliderFlags_Logarithmic);
@@ -117,8 +136,10 @@ void statistics_section(const PanelState& s, const sim::World& world, const Step
   if (!ImGui::CollapsingHeader("Timings and counters", ImGuiTreeNodeFlags_DefaultOpen)) return;
   ImGui::Text("fragments %ld   splits %ld   contacts %ld", static_cast<long>(world.fragment_count()), history.splits,
               history.contacts);
-  ImGui::Text("energy %.4g J (kinetic + elastic + gravity)",
-              world.kinetic_energy() + world.elastic_energy() + world.potential_energy());
+  if (s.replay.frames == 0) {  // a replay poses nodes without velocities: its energy would mislead
+    ImGui::Text("energy %.4g J (kinetic + elastic + gravity)",
+                world.kinetic_energy() + world.elastic_energy() + world.potential_energy());
+  }
   for (int p = 0; p < StepHistory::PhaseCount; ++p) plot(StepHistory::kPhaseNames[static_cast<std::size_t>(p)], history.ms[static_cast<std::size_t>(p)]);
   plot("render", s.render_ms);
 }
@@ -134,10 +155,14 @@ PanelEdits draw_panel(PanelState& state, const sim::World& world, const StepHist
   ImGui::Begin("fissure (H hides)");
   ImGui::PushItemWidth(-170.0f);
   if (!state.status.empty()) ImGui::TextColored(ImVec4(1.0f, 0.45f, 0.35f, 1.0f), "%s", state.status.c_str());
-  clock_section(state, world);
-  shot_section(state);
-  edits.body = object_section(state);
-  edits.settings = solver_section(state);
+  if (state.replay.frames > 0) {
+    edits.seek = replay_section(state, world);
+  } else {
+    clock_section(state, world);
+    shot_section(state);
+    edits.body = object_section(state);
+    edits.settings = solver_section(state);
+  }
   edits.features = features_section(state);
   statistics_section(state, world, history);
   ImGui::PopItemWidth();

@@ -19,6 +19,13 @@ struct BodyControls {
   double toughness = 0;  ///< [N]
 };
 
+/// A replay's timeline (`view --replay`).
+struct ReplayControls {
+  std::size_t frames = 0;  ///< 0: not a replay
+  int frame = 0;           ///< the frame shown; the slider edits it
+  long step = 0;           ///< its step in the recorded run
+};
+
 struct PanelState {
   Features features;
   float tessellation_level = 8.0f;
@@ -35,11 +42,13 @@ struct PanelState {
   sim::WorldSettings settings;
   std::deque<float> render_ms;
   std::string status;              ///< a failure or an error to show
+  ReplayControls replay;
 };
 
 /// What the user changed this frame.
 struct PanelEdits {
   bool features = false, settings = false;
+  bool seek = false;                ///< the replay's timeline moved to state.replay.frame
   std::optional<std::size_t> body;  ///< whose material or toughness
 };
 

@@ -63,6 +63,10 @@ ScriptAction parse_line(const std::string& command, LineReader& in) {
     a.kind = command == "wait" ? Kind::Wait : Kind::Step;
     a.count = in.number<long>("a count of frames or steps");
     if (a.count < 1 || a.count > 1'000'000) throw Error(in.where() + ": count " + std::to_string(a.count) + " is out of range", "give 1 to 1000000");
+  } else if (command == "seek") {
+    a.kind = Kind::Seek;
+    a.count = in.number<long>("a frame of the replay");
+    if (a.count < 0) throw Error(in.where() + ": frame " + std::to_string(a.count) + " is negative", "frames count from 0");
   } else if (command == "pause" || command == "resume" || command == "quit") {
     a.kind = command == "pause" ? Kind::Pause : command == "resume" ? Kind::Resume : Kind::Quit;
   } else if (command == "fire") {
@@ -96,7 +100,7 @@ ScriptAction parse_line(const std::string& command, LineReader& in) {
     a.name = in.word("a PNG path");
   } else {
     throw Error(in.where() + ": unknown action '" + command + "'",
-                "actions: wait, pause, resume, step, fire, shot, toggle, set, screenshot, quit");
+                "actions: wait, pause, resume, step, seek, fire, shot, toggle, set, screenshot, quit");
   }
   in.end();
   return a;

@@ -5,13 +5,17 @@
 ///   # a comment; blank lines are skipped
 ///   wait N                    draw N frames doing nothing else
 ///   pause | resume
-///   step N                    take N physics steps now (paused or not)
+///   step N                    take N physics steps now (paused or not); in a replay,
+///                             move N recorded frames on
+///   seek FRAME                in a replay: go to recorded frame FRAME (from 0)
 ///   fire X Y                  shoot a projectile through pixel (X, Y), from the top left
+///                             (not in a replay, which shows only what was recorded)
 ///   shot MASS RADIUS SPEED    what the next shots are [kg, m, m/s] (the panel's Shot)
 ///   toggle FEATURE            walls, normal-mapping, tessellation, cage, spheres,
 ///                             replication-colors, fragment-colors
 ///   set BODY PARAM VALUE      youngs_modulus, poisson_ratio, density, toughness or
 ///                             damping (Rayleigh mass α) of the object named BODY
+///                             (not in a replay)
 ///   screenshot PATH           write the scene as drawn (without the panel) as PNG
 ///   quit
 
@@ -22,9 +26,9 @@
 namespace fissure::view {
 
 struct ScriptAction {
-  enum class Kind { Wait, Pause, Resume, Step, Fire, Shot, Toggle, Set, Screenshot, Quit };
+  enum class Kind { Wait, Pause, Resume, Step, Seek, Fire, Shot, Toggle, Set, Screenshot, Quit };
   Kind kind = Kind::Wait;
-  long count = 1;               ///< wait, step
+  long count = 1;               ///< wait, step; seek: the frame
   float x = 0, y = 0;           ///< fire [pixels]
   float mass = 0, radius = 0, speed = 0;  ///< shot
   std::string name;             ///< toggle: the feature; set: the body; screenshot: the path

@@ -13,6 +13,8 @@
 #include "common/error.h"
 #include "common/log.h"
 #include "formats/image.h"
+#include "formats/trajectory.h"
+#include "player/app/replay.h"
 #include "player/app/scene_loader.h"
 #include "player/app/scene_view.h"
 #include "player/render/window.h"
@@ -45,6 +47,9 @@ class Viewer {
   /// One script action (or one frame of a wait); false when the script asks to quit.
   bool script_step();
   void advance(double frame_seconds);
+  /// A replay's clock: real time (scaled), or frames per frame, or the timeline.
+  void advance_replay(double frame_seconds);
+  void seek(long frame);
   void take_steps(long steps);
   void draw();
   void apply_features();
@@ -62,6 +67,9 @@ class Viewer {
   std::unique_ptr<player::SceneView> m_view;
   std::unique_ptr<player::RunLoop> m_loop;
   std::unique_ptr<StepHistory> m_history;
+  std::optional<formats::Trajectory> m_trajectory;  ///< --replay's, read once
+  std::unique_ptr<player::Replay> m_replay;
+  double m_replay_time = 0;  ///< [s] where the replay's clock is
   std::optional<OrbitCamera> m_camera;  ///< set once the user moves the camera
   PanelState m_panel;
   // The clock and the script.
@@ -81,6 +89,7 @@ class Viewer {
 Viewer::Viewer(const formats::Scene& scene, const ViewOptions& options)
     : m_scene(scene), m_options(options), m_window("fissure-player — " + scene.file.filename().string(), options.width, options.height) {
   if (!options.script.empty()) m_script = read_script(options.script);
+  if (!options.replay.empty()) m_trajectory = formats::read_trajectory(options.replay);
   // Our callbacks first: ImGui's backend chains to them, then takes what it wants.
   glfwSetWindowUserPointer(m_window.handle(), this);
   glfwSetScrollCallback(m_window.handle(), [](GLFWwindow* w, double /*dx*/, double dy) {
@@ -117,6 +126,23 @@ void Viewer::reset() {
     m_panel.bodies.push_back({b.name, b.integrator().material(), b.fracture.toughness});
   }
   m_panel.settings = m_loaded->world.settings();
+  if (m_trajectory) {
+    m_replay = std::make_unique<player::Replay>(*m_trajectory, m_options.replay.string(), m_loaded->world);
+    m_panel.replay.frames = m_replay->frame_count();
+    // To the end and back: every recorded split is checked against the scene now, so
+    // scrubbing later cannot fail.
+    seek(static_cast<long>(m_replay->frame_count()) - 1);
+    seek(0);
+  }
+}
+
+void Viewer::seek(long frame) {
+  const long last = static_cast<long>(m_replay->frame_count()) - 1;
+  m_replay->seek(m_loaded->world, static_cast<std::size_t>(std::clamp(frame, 0L, last)));
+  m_replay_time = m_replay->time(m_replay->frame());
+  m_panel.replay.frame = static_cast<int>(m_replay->frame());
+  m_panel.replay.step = static_cast<long>(m_replay->step(m_replay->frame()));
+  m_history->splits = static_cast<long>(m_replay->applied_splits());
 }
 
 void Viewer::apply_features() {
@@ -134,7 +160,11 @@ void Viewer::on_key(int key) {
   if (m_ui->wants_keyboard()) return;
   switch (key) {
     case GLFW_KEY_SPACE: m_panel.paused = !m_panel.paused; break;
-    case GLFW_KEY_N: m_panel.pending_steps += 1; break;
+    case GLFW_KEY_N:
+    case GLFW_KEY_RIGHT: m_panel.pending_steps += 1; break;
+    case GLFW_KEY_LEFT:  // a replay's frame back; a simulation cannot step back
+      if (m_replay) m_panel.pending_steps -= 1;
+      break;
     case GLFW_KEY_R: m_panel.reset_requested = true; break;
     case GLFW_KEY_F:  // back to the scene's own framing (following the bodies); the world goes on
       m_camera.reset();
@@ -199,6 +229,10 @@ void Viewer::handle_input() {
 }
 
 void Viewer::fire(float x, float y) {
+  if (m_replay) {
+    m_panel.status = "a replay shows the recorded run: shots are off (view the scene without --replay to shoot)";
+    return;
+  }
   const auto [width, height] = framebuffer_size();
   const OrbitCamera aim = m_camera ? *m_camera : OrbitCamera(m_view->camera());
   const Ray ray = aim.ray(x, y, width, height);
@@ -248,6 +282,10 @@ bool Viewer::script_step() {
     case Kind::Pause: m_panel.paused = true; break;
     case Kind::Resume: m_panel.paused = false; break;
     case Kind::Step: m_panel.pending_steps += a.count; break;
+    case Kind::Seek:
+      if (!m_replay) throw Error(where + ": seek needs a replay", "open the scene with --replay TRAJECTORY");
+      seek(a.count);
+      break;
     case Kind::Fire: fire(a.x, a.y); break;
     case Kind::Shot: m_panel.shot = {a.mass, a.radius, a.speed}; break;
     case Kind::Toggle: {
@@ -257,6 +295,7 @@ bool Viewer::script_step() {
       break;
     }
     case Kind::Set: {
+      if (m_replay) throw Error(where + ": a replay's materials are the recorded run's", "leave out --replay to tune them");
       const auto& bodies = m_loaded->world.bodies();
       std::size_t b = 0;
       while (b < bodies.size() && bodies[b].name != a.name) ++b;
@@ -283,7 +322,29 @@ void Viewer::take_steps(long steps) {
   m_loop->take_steps(steps);
 }
 
+void Viewer::advance_replay(double frame_seconds) {
+  long frame = static_cast<long>(m_replay->frame());
+  if (!m_panel.paused) {
+    if (m_panel.steps_per_frame > 0) {
+      frame += m_panel.steps_per_frame;
+    } else {
+      m_replay_time += std::min(frame_seconds, kMaxFrameSeconds) * m_panel.time_scale;
+      frame = static_cast<long>(m_replay->frame_at(m_replay_time));
+    }
+  }
+  const long pending = std::exchange(m_panel.pending_steps, 0);
+  frame += pending;
+  const double clock = m_replay_time;
+  if (frame != static_cast<long>(m_replay->frame())) seek(frame);
+  // Playing in real time, the clock runs on between recorded frames; a seek sets it.
+  if (!m_panel.paused && m_panel.steps_per_frame == 0 && pending == 0) m_replay_time = clock;
+  if (m_replay->frame() + 1 == m_replay->frame_count() && !m_panel.paused) {
+    m_panel.paused = true;  // the end of the recording: stay on its last frame
+  }
+}
+
 void Viewer::advance(double frame_seconds) {
+  if (m_replay) return advance_replay(frame_seconds);
   if (m_failed) return;
   if (!m_panel.paused) {
     if (m_panel.steps_per_frame > 0) {
@@ -327,6 +388,7 @@ void Viewer::draw() {
   if (m_options.panel) {
     const PanelEdits edits = draw_panel(m_panel, m_loaded->world, *m_history);
     if (edits.features) apply_features();
+    if (edits.seek) seek(m_panel.replay.frame);
     if (edits.settings) {
       try {
         m_loaded->world.set_settings(m_panel.settings);
@@ -361,6 +423,10 @@ int Viewer::run() {
   if (!m_options.screenshot.empty()) ok = write_screenshot(m_options.screenshot) && ok;
   std::printf("view       %ld frames, %ld steps, t = %.4f s, %ld fragments, %d shots\n", m_frames, m_history->steps,
               m_loaded->world.time(), static_cast<long>(m_loaded->world.fragment_count()), m_panel.shots);
+  if (m_replay) {
+    std::printf("replay     frame %zu of %zu (step %llu) of %s\n", m_replay->frame(), m_replay->frame_count(),
+                static_cast<unsigned long long>(m_replay->step(m_replay->frame())), m_replay->file().c_str());
+  }
   if (m_failed) std::printf("status     %s\n", m_panel.status.c_str());
   return ok ? 0 : 1;
 }

@@ -3,7 +3,8 @@
 /// runs in real time (or slower), or a fixed number of steps per frame for repeatable
 /// runs; the camera orbits, pans and zooms; a click fires a projectile along the view
 /// ray; materials, solver settings and drawing features change live. A failed step
-/// pauses the world and shows why; the window stays.
+/// pauses the world and shows why; the window stays. With a trajectory (--replay), the
+/// window plays the recorded run instead, on a timeline to scrub (player/app/replay.h).
 
 #include <filesystem>
 
@@ -20,6 +21,7 @@ struct ViewOptions {
   bool paused = false;                      ///< start paused
   bool panel = true;                        ///< draw the ImGui panel
   float tessellation = 8.0f;                ///< the relief's level when the panel turns it on
+  std::filesystem::path replay;             ///< a trajectory to play back (run --trajectory); empty: simulate
 };
 
 /// Returns the exit code: 0, or 1 when the script or a screenshot failed. Throws

@@ -121,6 +121,68 @@ TEST_F(ViewCli, TogglingWallsChangesTheImageOnlyWhereFractureOpenedFaces) {
   EXPECT_EQ(formats::read_png(a).rgba, formats::read_png(c).rgba);
 }
 
+// A run recorded headless, replayed in the window: each scrubbed frame is the headless
+// frame of its step, with walls and without, whichever way the timeline moves.
+TEST_F(ViewCli, AReplayShowsTheRecordedRunsFramesWithAndWithoutWalls) {
+  const std::string hit =
+      "toughness = 0.5\n\n[[projectile]]\nradius = 0.08\nmass = 5\nposition = [0.5, 0.5, 1.3]\nvelocity = [0, 0, -60]\n";
+  const auto scene_file = scene(hit), trajectory = dir.path() / "run.h5";
+  const auto walls = dir.path() / "walls", bare = dir.path() / "bare";
+  // dt = 0.004 s and 250 frames/s: headless frame k is the state after k steps.
+  const std::string run = std::string(FISSURE_PLAYER_EXE) + " run " + quoted(scene_file) +
+                          " --steps 40 --fps 250 --size " + kSize + " --frames ";
+  auto result = testing::run_command(run + quoted(walls) + " --trajectory " + quoted(trajectory) + " --trajectory-every 2");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  result = testing::run_command(run + quoted(bare) + " --no-walls");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+
+  const auto a = dir.path() / "a.png", b = dir.path() / "b.png", c = dir.path() / "c.png", d = dir.path() / "d.png";
+  const std::string actions = "seek 20\nscreenshot " + a.string() + "\ntoggle walls\nscreenshot " + b.string() +
+                              "\nseek 5\nscreenshot " + c.string() + "\ntoggle walls\nseek 20\nscreenshot " +
+                              d.string() + "\nquit\n";
+  result = in_window("view " + quoted(scene_file) + " --replay " + quoted(trajectory) + " --size " + kSize +
+                     " --paused --no-panel --script " + quoted(script(actions)));
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_NE(result.output.find("replay     frame 20 of 21 (step 40)"), std::string::npos) << result.output;
+  ASSERT_GT(fragments(result.output), 1) << "the shot should break the ball by step 40\n" << result.output;
+  const auto matches = [](const std::filesystem::path& window, const std::filesystem::path& headless) {
+    const testing::ImageDifference diff = testing::compare_images(formats::read_png(window), formats::read_png(headless), {});
+    EXPECT_LE(diff.fraction(), 1e-3) << window.filename() << " against " << headless << ": " << diff.failing << " pixels differ";
+  };
+  matches(a, walls / "frame-00040.png");
+  matches(b, bare / "frame-00040.png");
+  matches(c, bare / "frame-00010.png");
+  EXPECT_EQ(formats::read_png(a).rgba, formats::read_png(d).rgba) << "back and forth on the timeline changed frame 20";
+  EXPECT_NE(formats::read_png(a).rgba, formats::read_png(b).rgba) << "a broken ball shows walls";
+}
+
+TEST_F(ViewCli, AReplayRefusesShotsAndEditsAndAnotherScenesTrajectory) {
+  const auto trajectory = dir.path() / "run.h5";
+  auto result = testing::run_command(std::string(FISSURE_PLAYER_EXE) + " -q run " + quoted(scene()) +
+                                     " --steps 4 --no-render --trajectory " + quoted(trajectory));
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  const std::string replay = "view " + quoted(scene()) + " --replay " + quoted(trajectory) + " --size " + kSize +
+                             " --no-panel --exit-after-frames 5 --script ";
+  result = in_window(replay + quoted(script("set ball toughness 3\n")));
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("actions.txt:1: a replay's materials are the recorded run's"), std::string::npos)
+      << result.output;
+  result = in_window(replay + quoted(script("fire 80 60\nwait 2\n")));
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_NE(result.output.find("0 shots"), std::string::npos) << result.output;
+  // Another scene: a second ball the recording does not have.
+  const auto other = dir.path() / "other.toml";
+  std::ofstream(other) << std::ifstream(scene()).rdbuf() << "\n[[object]]\nname = \"ball2\"\nbundle = "
+                       << quoted(bundle_path()) << "\ntranslation = [2, 0, 0.2]\n";
+  result = in_window("view " + quoted(other) + " --replay " + quoted(trajectory) + " --exit-after-frames 2");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("run.h5: has 1 bodies; the scene has 2"), std::string::npos) << result.output;
+  // Not a trajectory at all.
+  result = in_window("view " + quoted(scene()) + " --replay " + quoted(bundle_path()) + " --exit-after-frames 2");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("not a Fissure trajectory"), std::string::npos) << result.output;
+}
+
 TEST_F(ViewCli, ScriptErrorsNameTheLineAndExitOne) {
   auto result = view("", "wait 2\nset nobody toughness 3\n", 10);
   EXPECT_EQ(result.exit_code, 1) << result.output;
