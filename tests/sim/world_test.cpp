@@ -199,6 +199,35 @@ TEST(World, ANewMaterialActsFromTheNextStepAsIfTheWorldWereBuiltWithIt) {
   EXPECT_EQ(edited->bodies()[0].integrator().material().poisson_ratio, changed.poisson_ratio);
 }
 
+// The viewer's live solver settings: a world given new settings before its first step
+// steps bit for bit like one built with them (dt, the linear solver and its tolerance,
+// fracture off); an invalid dt changes nothing.
+TEST(World, NewSettingsActFromTheNextStepAsIfTheWorldWereBuiltWithThem) {
+  testing::SceneParts original = testing::breaking_bar();
+  sim::WorldSettings changed = original.settings;
+  changed.step.dt = 0.5 * original.settings.step.dt;
+  changed.step.solver = sim::LinearSolver::ConjugateGradient;
+  changed.step.tolerance = 1e-7;
+  changed.fracture = false;
+  testing::SceneParts built = original;
+  built.settings = changed;
+  const auto edited = original.make();
+  const auto reference = built.make();
+  sim::WorldSettings invalid = changed;
+  invalid.step.dt = -1.0;
+  EXPECT_THROW(edited->set_settings(invalid), Error);
+  EXPECT_EQ(edited->settings().step.dt, original.settings.step.dt);
+  edited->set_settings(changed);
+  for (int step = 0; step < 80; ++step) {
+    ASSERT_TRUE(edited->step().status.ok());
+    ASSERT_TRUE(reference->step().status.ok());
+  }
+  EXPECT_EQ(edited->time(), reference->time());
+  EXPECT_EQ(edited->bodies()[0].integrator().positions(), reference->bodies()[0].integrator().positions());
+  EXPECT_EQ(edited->bodies()[0].integrator().node_count(), static_cast<Index>(original.bodies[0].rest.cols()))
+      << "fracture is off: the hit must not split the bar";
+}
+
 // A viewer's shot enters at the next step and moves like the scene's projectiles.
 TEST(World, AnAddedProjectileEntersAtTheNextStep) {
   const auto world = testing::breaking_bar().make();
