@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <string>
+#include <tuple>
 
 #include "common/log.h"
 
@@ -21,6 +24,14 @@ double Diagnostics::total_energy(const sim::World& world) {
 void Diagnostics::on_start(const sim::World& world) {
   const auto start = Clock::now();
   energy_initial = energy_max = energy_final = total_energy(world);
+  energy_slack = 1e-9;
+  m_body_energy_initial.clear();
+  for (Index b = 0; b < world.bodies().size(); ++b) {
+    const sim::ImplicitIntegrator& body = world.bodies()[b].integrator();
+    const Vec3 extent = body.positions().rowwise().maxCoeff() - body.positions().rowwise().minCoeff();
+    energy_slack += 1e-3 * body.node_masses().sum() * world.settings().step.gravity.norm() * extent.norm();
+    m_body_energy_initial.push_back(world.body_energy(b).total());
+  }
   momentum_initial = momentum_final = world.linear_momentum();
   angular_initial = angular_final = world.angular_momentum();
   seconds = seconds_since(start);
@@ -37,10 +48,15 @@ void Diagnostics::on_step(const sim::World& world, const sim::StepReport& report
   }
   energy_final = total_energy(world);
   energy_max = std::max(energy_max, energy_final);
+  energy_put_in = world.energy_put_in();
+  const double input = energy_initial + energy_put_in;
+  const double allowed = input + kEnergyTolerance * std::abs(input) + energy_slack;
   if (!std::isfinite(energy_final) && !m_stop) {
     m_stop = RunStop{"at step " + std::to_string(step) + " (t = " + std::to_string(world.time()) +
                          " s) the total energy became non-finite",
                      "use a smaller solver.dt or set solver.min_dt; please report the scene"};
+  } else if (energy_final > allowed && !m_stop) {
+    m_stop = energy_gain_stop(world, report, step, energy_final, allowed);
   }
   if (log_level() >= LogLevel::Debug) {
     log_debug("step " + std::to_string(step) + " kinetic " + std::to_string(world.kinetic_energy()) + " elastic " +
@@ -49,6 +65,43 @@ void Diagnostics::on_step(const sim::World& world, const sim::StepReport& report
               std::to_string(report.solver_iterations));
   }
   seconds += seconds_since(start);
+}
+
+RunStop Diagnostics::energy_gain_stop(const sim::World& world, const sim::StepReport& report, long step,
+                                      double energy, double allowed) const {
+  // The body that gained the most since the start, and in which form.
+  Index worst = kInvalidIndex;
+  double gain = -std::numeric_limits<double>::infinity();
+  for (Index b = 0; b < world.bodies().size(); ++b) {
+    const double g = world.body_energy(b).total() - m_body_energy_initial[b];
+    if (g > gain) std::tie(worst, gain) = std::pair(b, g);
+  }
+  std::string who = "the projectiles", cause = "contacts with projectiles";
+  if (worst != kInvalidIndex) {
+    const sim::BodyEnergy e = world.body_energy(worst);
+    const bool elastic = e.elastic >= e.kinetic;
+    const bool split = std::any_of(report.splits.begin(), report.splits.end(), [&](const auto& s) { return s.first == worst; });
+    who = "body '" + world.bodies()[worst].name + "' (now " + std::to_string(e.kinetic) + " J kinetic, " +
+          std::to_string(e.elastic) + " J elastic)";
+    const double dt = world.settings().step.dt;
+    if (split) {
+      cause = "fracture: nodes split in this step and the two sides push apart";
+    } else if (dt > 1.0 / 60.0) {
+      cause = "the large step, solver.dt = " + std::to_string(dt) + " s: rotations and contacts lag within it";
+    } else if (report.contacts.contacts > 0 && !elastic) {
+      cause = "contacts pushing overlapping points apart";
+    } else {
+      cause = elastic ? "the implicit solve straining the body (a stiff or nearly incompressible material for this dt)"
+                      : "the implicit solve";
+    }
+  }
+  char amounts[160];
+  std::snprintf(amounts, sizeof amounts, "the total energy %.6g J exceeds the %.6g J put in by more than %g%% (allowed %.6g J)",
+                energy, energy_initial + energy_put_in, 100.0 * kEnergyTolerance, allowed);
+  return {"at step " + std::to_string(step) + " (t = " + std::to_string(world.time()) + " s) " + amounts +
+              "; the largest gain is " + who + "; likely cause: " + cause,
+          "use a smaller solver.dt (or set solver.min_dt); the physics must not create energy, so please report "
+          "the scene; --no-diagnostics runs on without this check"};
 }
 
 void Diagnostics::on_finish(const sim::World& world, const RunEnd& /*end*/) {

@@ -6,6 +6,7 @@
 /// them), and their own time is measured.
 
 #include <optional>
+#include <vector>
 
 #include "player/app/run_loop.h"
 
@@ -16,7 +17,10 @@ class Diagnostics : public RunObserver {
   void on_start(const sim::World& world) override;
   void on_step(const sim::World& world, const sim::StepReport& report, long step) override;
   void on_finish(const sim::World& world, const RunEnd& end) override;
-  /// Stops the run when the total energy is no longer finite.
+  /// Stops the run when the total energy is no longer finite, or exceeds what was put in
+  /// (the start plus World::energy_put_in()) by more than kEnergyTolerance of it plus
+  /// energy_slack: the physics may only lose energy (issue 16), so a gain is a fault,
+  /// named with its step, body and likely cause.
   [[nodiscard]] const RunStop* stop_request() const override { return m_stop ? &*m_stop : nullptr; }
 
   double energy_initial = 0, energy_final = 0, energy_max = 0;  ///< [J]
@@ -26,10 +30,20 @@ class Diagnostics : public RunObserver {
   double sphere_penetration_max = 0, vertex_penetration_max = 0;      ///< [m]
   double sphere_penetration_final = 0, vertex_penetration_final = 0;  ///< [m]
   double seconds = 0;  ///< spent in these checks [s]
+  /// The share of the energy put in that a run may gain before it is stopped: rounding,
+  /// and CG solves that stop at their tolerance, move the total by far less.
+  static constexpr double kEnergyTolerance = 0.01;
+  /// [J] the absolute part of the bound: lifting every body by 0.1% of its size.
+  double energy_slack = 0;
+  double energy_put_in = 0;  ///< [J] by the end (World::energy_put_in())
 
  private:
   static double total_energy(const sim::World& world);
+  /// The stop for an energy gain: who gained it, and the likely cause.
+  [[nodiscard]] RunStop energy_gain_stop(const sim::World& world, const sim::StepReport& report, long step,
+                                         double energy, double allowed) const;
   std::optional<RunStop> m_stop;
+  std::vector<double> m_body_energy_initial;  ///< [J] per body
 };
 
 }  // namespace fissure::player

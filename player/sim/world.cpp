@@ -122,6 +122,7 @@ StepReport World::step() {
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_bodies[bi].integrator().save(m_checkpoint.bodies[bi]);
   m_checkpoint.projectiles = m_projectiles;
   m_checkpoint.impulses = m_contact_impulses;
+  m_checkpoint.energy_put_in = m_energy_put_in;
   report.status = advance(m_settings.step.dt, report, 0);
   if (report.status.ok()) {
     if (const std::optional<Index> bad = first_non_finite(); bad) {
@@ -208,7 +209,10 @@ void World::launch_and_move_projectiles(double dt) {
   m_projectile_start.resize(m_projectiles.size());
   for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
     Projectile& p = m_projectiles[j];
-    if (!p.launched && p.launch_time <= m_time + 0.5 * dt) p.launched = true;
+    if (!p.launched && p.launch_time <= m_time + 0.5 * dt) {
+      p.launched = true;  // it enters the world with its kinetic and gravity energy
+      m_energy_put_in += 0.5 * p.mass * p.velocity.squaredNorm() - p.mass * m_settings.step.gravity.dot(p.position);
+    }
     m_projectile_start[j] = p.position;
     if (!p.launched) continue;
     p.velocity += dt * m_settings.step.gravity;
@@ -266,6 +270,7 @@ void World::roll_back(const StepReport& report) {
   }
   m_projectiles = m_checkpoint.projectiles;
   m_contact_impulses = m_checkpoint.impulses;
+  m_energy_put_in = m_checkpoint.energy_put_in;
   m_time = m_checkpoint.time;
 }
 
@@ -393,7 +398,16 @@ void World::pose(double time, std::span<const Projectile> projectiles) {
 }
 
 void World::set_velocities(Index body, const Matrix3Xd& velocities) {
-  m_bodies.at(body).integrator().set_velocities(velocities);
+  ImplicitIntegrator& integrator = m_bodies.at(body).integrator();
+  const double before = integrator.kinetic_energy();
+  integrator.set_velocities(velocities);
+  m_energy_put_in += integrator.kinetic_energy() - before;
+}
+
+BodyEnergy World::body_energy(Index body) const {
+  const ImplicitIntegrator& b = m_bodies.at(body).integrator();
+  return {b.kinetic_energy(), b.elasticity().energy(b.positions()),
+          -m_settings.step.gravity.dot(b.positions() * b.node_masses())};
 }
 
 BodyFrame World::frame(Index body, bool with_deformation) const {

@@ -71,6 +71,12 @@ struct StepFailure {
 
 [[nodiscard]] const char* to_string(StepOutcome outcome);
 
+/// One body's energy [J]; gravity's relative to the origin.
+struct BodyEnergy {
+  double kinetic = 0, elastic = 0, gravity = 0;
+  [[nodiscard]] double total() const { return kinetic + elastic + gravity; }
+};
+
 /// A split as a recording keeps it, for replaying (World::redo_splits).
 struct RecordedSplit {
   NodeIndex node = kInvalidIndex, added = kInvalidIndex;
@@ -180,6 +186,12 @@ class World {
   [[nodiscard]] double kinetic_energy() const;
   [[nodiscard]] double elastic_energy() const;
   [[nodiscard]] double potential_energy() const;  ///< gravity, relative to the origin
+  [[nodiscard]] BodyEnergy body_energy(Index body) const;
+  /// The energy put into the world from outside since it was built [J]: each projectile's
+  /// kinetic and gravity energy as it is launched (a scene's or a viewer's), and the
+  /// kinetic energy set_velocities changed. The physics may only lose energy, so the
+  /// total energy never exceeds its start plus this (issue 16: Diagnostics checks it).
+  [[nodiscard]] double energy_put_in() const { return m_energy_put_in; }
   [[nodiscard]] Vec3 linear_momentum() const;
   [[nodiscard]] Vec3 angular_momentum() const;    ///< about the origin
   [[nodiscard]] Index fragment_count() const;     ///< summed over bodies
@@ -195,6 +207,7 @@ class World {
     std::vector<ImplicitIntegrator::Checkpoint> bodies;
     std::vector<Projectile> projectiles;
     ContactImpulses impulses;
+    double energy_put_in = 0;
   };
   StepStatus advance(double dt, StepReport& report, int depth);
   void fracture_bodies(StepReport& report);
@@ -219,6 +232,7 @@ class World {
   Checkpoint m_checkpoint;
   std::vector<ImplicitIntegrator::Checkpoint> m_substep_checkpoint;  ///< solve_bodies' scratch
   std::uint64_t m_steps = 0;
+  double m_energy_put_in = 0;  ///< see energy_put_in()
   mutable std::vector<std::vector<Mat3>> m_deformation;   ///< per body, frame()'s cache
   mutable std::vector<std::uint64_t> m_deformation_step;  ///< per body, the step it is of (+1; 0: none)
 };

@@ -156,6 +156,25 @@ TEST_F(PlayerCli, ANonFiniteRunStopsWithExit1AndSaysWhen) {
   EXPECT_TRUE(std::filesystem::exists(trajectory));
 }
 
+// A run that creates energy (a steel-stiff pair of tets dropped at dt = 0.5 s: 3e8 J
+// from 2,289 J in one step, as measured for issue 16) ends with exit 1 naming the step,
+// the body and a likely cause, and still writes its report (never exit 0 with 1e94 J).
+TEST_F(PlayerCli, ARunThatCreatesEnergyStopsWithExit1AndSaysWhereAndWhy) {
+  const std::filesystem::path path = dir.path() / "large-steps.toml";
+  std::ofstream(path) << "[solver]\ndt = 0.5\n\n[environment.ground]\n\n[[object]]\nname = \"pair\"\nbundle = \"two.h5\"\n"
+                         "translation = [0, 0, 0.05]\n\n[object.material]\nyoungs_modulus = 1e12\n";
+  const auto report = dir.path() / "report.json";
+  auto result = player("run " + quoted(path) + " --no-render --steps 30 --report " + quoted(report));
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  for (const char* part : {"stopped after 1 steps: at step 1 ", "exceeds the", "body 'pair'", "likely cause: the large step", "hint:"}) {
+    EXPECT_NE(result.output.find(part), std::string::npos) << part << "\n" << result.output;
+  }
+  EXPECT_NE(read_text(report).find("\"outcome\":\"stopped\""), std::string::npos);
+  // The check is a diagnostic: without diagnostics the same run goes on to its end.
+  result = player("run " + quoted(path) + " --no-render --steps 30 --no-diagnostics");
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+}
+
 TEST_F(PlayerCli, BadRunOptionsAreErrors) {
   const auto result = player("run " + quoted(scene("")) + " --no-render --steps -3");
   EXPECT_EQ(result.exit_code, 1);
