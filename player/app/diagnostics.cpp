@@ -55,8 +55,10 @@ void Diagnostics::on_step(const sim::World& world, const sim::StepReport& report
     m_stop = RunStop{"at step " + std::to_string(step) + " (t = " + std::to_string(world.time()) +
                          " s) the total energy became non-finite",
                      "use a smaller solver.dt or set solver.min_dt; please report the scene"};
-  } else if (energy_final > allowed && !m_stop) {
-    m_stop = energy_gain_stop(world, report, step, energy_final, allowed);
+  } else if (energy_final > allowed && energy_gain.empty()) {
+    RunStop gain = energy_gain_stop(world, report, step, energy_final, allowed);
+    energy_gain = gain.message;
+    if (stop_on_energy_gain) m_stop = std::move(gain);
   }
   if (log_level() >= LogLevel::Debug) {
     log_debug("step " + std::to_string(step) + " kinetic " + std::to_string(world.kinetic_energy()) + " elastic " +
@@ -101,7 +103,7 @@ RunStop Diagnostics::energy_gain_stop(const sim::World& world, const sim::StepRe
   return {"at step " + std::to_string(step) + " (t = " + std::to_string(world.time()) + " s) " + amounts +
               "; the largest gain is " + who + "; likely cause: " + cause,
           "use a smaller solver.dt (or set solver.min_dt); the physics must not create energy, so please report "
-          "the scene; --no-diagnostics runs on without this check"};
+          "the scene; --no-energy-check runs on to the end"};
 }
 
 void Diagnostics::on_finish(const sim::World& world, const RunEnd& /*end*/) {

@@ -36,6 +36,8 @@ class Diagnostics : public RunObserver {
   /// [J] the absolute part of the bound: lifting every body by 0.1% of its size.
   double energy_slack = 0;
   double energy_put_in = 0;  ///< [J] by the end (World::energy_put_in())
+  bool stop_on_energy_gain = true;  ///< false: a gain is reported (energy_gain) but the run goes on
+  std::string energy_gain;          ///< the first gain's message, empty if none
 
  private:
   static double total_energy(const sim::World& world);

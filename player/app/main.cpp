@@ -57,7 +57,9 @@ int main(int argc, char** argv) {
   run->add_option("--trajectory", trajectory, "Write node trajectories and fracture events (HDF5)");
   run->add_option("--trajectory-every", options.trajectory_every, "Record every k-th step in the trajectory")
       ->capture_default_str();
-  bool no_diagnostics = false;
+  bool no_diagnostics = false, no_energy_check = false;
+  run->add_flag("--no-energy-check", no_energy_check,
+                "Report a run that creates energy, but run it on to the end (by default it stops with exit 1)");
   run->add_flag("--no-diagnostics", no_diagnostics,
                 "Skip the per-step energy and penetration checks (the report then has no energy or penetration)");
   run->add_option("-j,--threads", threads, "Worker threads (default: solver.threads of the scene; 0 = all cores)");
@@ -124,6 +126,7 @@ int main(int argc, char** argv) {
     options.report = report;
     options.trajectory = trajectory;
     options.diagnostics = !no_diagnostics;
+    options.energy_check = !no_energy_check;
     return player::run_scene(scene, options);
   } catch (const Error& e) {
     std::fputs(format_error(e).c_str(), stderr);

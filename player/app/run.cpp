@@ -115,7 +115,10 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
   RunStatistics statistics;
   loop.add(statistics);
   std::optional<Diagnostics> diagnostics;
-  if (options.diagnostics) loop.add(diagnostics.emplace());
+  if (options.diagnostics) {
+    loop.add(diagnostics.emplace());
+    diagnostics->stop_on_energy_gain = options.energy_check;
+  }
   if (trajectory) loop.add(*trajectory);
   ProgressLog progress(options.steps);
   loop.add(progress);

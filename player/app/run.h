@@ -15,6 +15,7 @@ struct RunOptions {
   std::filesystem::path trajectory;  ///< HDF5 trajectory; empty: none
   long trajectory_every = 1;         ///< record every k-th step
   bool diagnostics = true;           ///< energies and penetrations every step (timed, outside the step)
+  bool energy_check = true;          ///< with diagnostics: stop a run that creates energy (Diagnostics)
   FrameOptions images;               ///< frames and video; none: no GL context is made
 };
 

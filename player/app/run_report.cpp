@@ -89,6 +89,7 @@ void write_diagnostics(JsonWriter& json, const Diagnostics& d) {
   json.key("energy_final_J").value(d.energy_final);
   json.key("energy_max_J").value(d.energy_max);
   json.key("energy_put_in_J").value(d.energy_put_in);
+  json.key("energy_gain").value(d.energy_gain);
   json.key("kinetic_final_J").value(d.kinetic_final);
   json.key("elastic_final_J").value(d.elastic_final);
   write_vec(json, "linear_momentum_initial", d.momentum_initial);
@@ -135,6 +136,7 @@ void print_summary(const sim::World& world, const RunRecord& run) {
   if (const Diagnostics* d = run.diagnostics; d != nullptr) {
     std::printf("energy     %.6g J -> %.6g J (max %.6g J; kinetic + elastic + gravity), %.6g J put in\n",
                 d->energy_initial, d->energy_final, d->energy_max, d->energy_put_in);
+    if (!d->energy_gain.empty() && run.end.ok()) std::printf("warning    %s\n", d->energy_gain.c_str());
     std::printf("momentum   |p| %.6g -> %.6g kg m/s, |L| %.6g -> %.6g kg m²/s\n", d->momentum_initial.norm(),
                 d->momentum_final.norm(), d->angular_initial.norm(), d->angular_final.norm());
   }

@@ -170,9 +170,11 @@ TEST_F(PlayerCli, ARunThatCreatesEnergyStopsWithExit1AndSaysWhereAndWhy) {
     EXPECT_NE(result.output.find(part), std::string::npos) << part << "\n" << result.output;
   }
   EXPECT_NE(read_text(report).find("\"outcome\":\"stopped\""), std::string::npos);
-  // The check is a diagnostic: without diagnostics the same run goes on to its end.
-  result = player("run " + quoted(path) + " --no-render --steps 30 --no-diagnostics");
+  // Asked to, the same run goes on to its end and reports the gain.
+  result = player("run " + quoted(path) + " --no-render --steps 30 --no-energy-check --report " + quoted(report));
   EXPECT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_NE(result.output.find("warning    at step 1 "), std::string::npos) << result.output;
+  EXPECT_NE(read_text(report).find("\"energy_gain\":\"at step 1 "), std::string::npos);
 }
 
 TEST_F(PlayerCli, BadRunOptionsAreErrors) {
