@@ -1,7 +1,6 @@
 #include "player/app/replay.h"
 
 #include <algorithm>
-#include <cmath>
 
 #include "common/error.h"
 
@@ -57,6 +56,9 @@ void Replay::apply_splits(sim::World& world, std::size_t count) {
     }
     return out;
   };
+  // Each body's batch is checked before it changes; a later body's failure leaves the
+  // earlier ones split, which is why the viewer seeks to the end and back once at load
+  // (a trajectory that does not fit fails there, before anything is shown).
   for (Index b = 0; b < world.bodies().size(); ++b) {
     if (count > m_applied) {
       try {
