@@ -3,7 +3,6 @@
 // and the errors a user meets.
 #include <gtest/gtest.h>
 
-#include <cstdlib>
 #include <fstream>
 #include <regex>
 
@@ -14,6 +13,7 @@
 #include "tests/support/procedural.h"
 #include "tests/support/run_command.h"
 #include "tests/support/temp_dir.h"
+#include "tests/support/virtual_display.h"
 
 namespace fissure {
 namespace {
@@ -22,11 +22,8 @@ using testing::quoted;
 
 constexpr const char* kSize = "160x120";
 
-bool have_xvfb() { return std::system("command -v xvfb-run > /dev/null 2>&1") == 0; }
-
 testing::CommandResult in_window(const std::string& arguments) {
-  return testing::run_command("xvfb-run -a -s '-screen 0 640x480x24' " + std::string(FISSURE_PLAYER_EXE) + " " +
-                              arguments);
+  return testing::run_command(testing::VirtualDisplay::shared().env_prefix() + FISSURE_PLAYER_EXE + " " + arguments);
 }
 
 /// A breakable sphere of 1,280 triangles in a 4³-cube cage, resting on the ground.
@@ -45,7 +42,8 @@ class ViewCli : public ::testing::Test {
   }
   void SetUp() override {
     // The README's test command installs Xvfb: without it the setup is broken, not the test.
-    ASSERT_TRUE(have_xvfb()) << "xvfb-run is not installed: run scripts/install-deps.sh (Debian's xvfb)";
+    ASSERT_TRUE(testing::VirtualDisplay::shared().available())
+        << "Xvfb did not start: run scripts/install-deps.sh (Debian's xvfb)";
   }
 
   /// The scene, with `material_keys` added to the ball's material.
