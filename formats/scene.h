@@ -102,6 +102,7 @@ struct SceneProjectile {
 enum class SceneSolver { Direct, ConjugateGradient };
 enum class ScenePreconditioner { Cholesky, Jacobi };
 enum class SceneStiffness { Warped, Exact };
+enum class SceneRotation { Arc, Line };
 enum class SceneCollisionMode { Spheres, Vertices };
 
 struct SceneSolverSettings {
@@ -116,6 +117,8 @@ struct SceneSolverSettings {
   ScenePreconditioner preconditioner = ScenePreconditioner::Cholesky;  ///< for "cg"
   int refactor_iterations = 8;  ///< "cholesky": refactor after a solve that took more iterations, ≥ 1
   SceneStiffness stiffness = SceneStiffness::Warped;  ///< stiffness-warped or exact corotated tangent
+  /// How a fragment's rigid turn within a step is applied (sim/rigid_rotation.h).
+  SceneRotation rotation = SceneRotation::Arc;
   int threads = 0;               ///< 0 = all cores
   int max_splits_per_step = 64;  ///< fracture splits per step, ≥ 0 (0 = none)
 };

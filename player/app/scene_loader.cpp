@@ -137,6 +137,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
                                      ? sim::Preconditioner::Jacobi
                                      : sim::Preconditioner::LaggedCholesky;
   settings.step.refactor_iterations = scene.solver.refactor_iterations;
+  settings.rotate_on_arcs = scene.solver.rotation == formats::SceneRotation::Arc;
   settings.min_dt = scene.solver.min_dt;
   settings.fracture = scene.features.fracture;
   settings.max_splits_per_step = scene.solver.max_splits_per_step;

@@ -10,6 +10,7 @@
 #include "common/assert.h"
 #include "common/error.h"
 #include "player/sim/conjugate_gradient.h"
+#include "player/sim/rigid_rotation.h"
 
 namespace fissure::sim {
 
@@ -366,6 +367,12 @@ void ImplicitIntegrator::correct_velocities(const Eigen::VectorXd& delta, double
     m_velocities.col(n) += d;
     m_positions.col(n) += h * d;
   }
+}
+
+double ImplicitIntegrator::rotate_rigid_parts(const Matrix3Xd& start, std::span<const Index> node_fragment,
+                                              Index fragments) {
+  FISSURE_ASSERT(start.cols() == m_positions.cols() && node_fragment.size() == m_pinned.size());
+  return sim::rotate_rigid_parts(start, m_mass, m_pinned, node_fragment, fragments, m_positions, m_velocities);
 }
 
 double ImplicitIntegrator::kinetic_energy() const {

@@ -156,6 +156,10 @@ class ImplicitIntegrator {
   /// v += δ and x += h δ on the free nodes (δ indexed by system rows); the next solve
   /// starts from the corrected Δv.
   void correct_velocities(const Eigen::VectorXd& delta, double h);
+  /// Moves each fragment's rigid rotation since `start` (the positions before the step)
+  /// on an arc instead of a line (rigid_rotation.h); `node_fragment[n]` is in
+  /// [0, fragments). Returns the largest angle turned [rad].
+  double rotate_rigid_parts(const Matrix3Xd& start, std::span<const Index> node_fragment, Index fragments);
 
   [[nodiscard]] int last_iterations() const { return m_iterations; }
   /// Numeric Cholesky factorizations so far (direct solves, and LaggedCholesky refreshes).

@@ -160,8 +160,22 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   ++report.substeps;
   launch_and_move_projectiles(dt);
   if (m_settings.collisions) collide(dt, report);
+  if (m_settings.rotate_on_arcs) rotate_fragments_on_arcs();
   m_time += dt;
   return {};
+}
+
+void World::rotate_fragments_on_arcs() {
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+    Body& b = m_bodies[bi];
+    const Matrix4Xu& tets = b.integrator().elasticity().tets();
+    const std::vector<Index>& tet_fragment = b.topology.tet_fragment();
+    m_node_fragment.assign(b.integrator().node_count(), 0);
+    for (Eigen::Index t = 0; t < tets.cols(); ++t) {
+      for (int k = 0; k < 4; ++k) m_node_fragment[tets(k, t)] = tet_fragment[t];
+    }
+    b.integrator().rotate_rigid_parts(m_start_positions[bi], m_node_fragment, b.topology.fragment_count());
+  }
 }
 
 void World::fracture_bodies(StepReport& report) {

@@ -43,6 +43,9 @@ struct WorldSettings {
   bool self_collision = false;
   CollisionPoints collision_points = CollisionPoints::Spheres;
   int contact_iterations = 8;
+  /// Each fragment's rigid rotation within a step moves on an arc, not a line
+  /// (rigid_rotation.h); off: plain backward Euler, for comparison.
+  bool rotate_on_arcs = true;
 };
 
 /// How a step ended. A step never throws for a numerical outcome: it says what
@@ -215,6 +218,8 @@ class World {
   StepStatus solve_bodies(const StepSettings& step, StepReport& report);
   void launch_and_move_projectiles(double dt);
   void collide(double dt, StepReport& report);
+  /// Each fragment's rigid rotation since the step's start, on an arc (rigid_rotation.h).
+  void rotate_fragments_on_arcs();
   /// The first body with a non-finite position or velocity (kInvalidIndex: a projectile).
   [[nodiscard]] std::optional<Index> first_non_finite() const;
   void roll_back(const StepReport& report);
@@ -229,6 +234,7 @@ class World {
   std::vector<Vec3> m_projectile_start;      ///< likewise per projectile
   std::vector<Matrix3Xd> m_previous_positions;  ///< per body, at the start of the last whole step
   ContactImpulses m_contact_impulses;  ///< the last step's, to warm-start the next
+  std::vector<Index> m_node_fragment;  ///< scratch for rotate_fragments_on_arcs
   Checkpoint m_checkpoint;
   std::vector<ImplicitIntegrator::Checkpoint> m_substep_checkpoint;  ///< solve_bodies' scratch
   std::uint64_t m_steps = 0;

@@ -34,6 +34,7 @@ max_iterations = 50
 preconditioner = "jacobi"
 refactor_iterations = 3
 stiffness = "exact"
+rotation = "line"
 threads = 3
 max_splits_per_step = 7
 
@@ -122,6 +123,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(scene.solver.preconditioner, ScenePreconditioner::Jacobi);
   EXPECT_EQ(scene.solver.refactor_iterations, 3);
   EXPECT_EQ(scene.solver.stiffness, SceneStiffness::Exact);
+  EXPECT_EQ(scene.solver.rotation, SceneRotation::Line);
   EXPECT_EQ(scene.solver.threads, 3);
   EXPECT_EQ(scene.solver.max_splits_per_step, 7);
 
@@ -175,12 +177,12 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(bunny.pin_boxes[0].min, Vec3(-1, -1, 0));
   EXPECT_EQ(bunny.pin_boxes[0].max, Vec3(1, 1, 0.1));
   EXPECT_EQ(bunny.pin_nodes, (std::vector<Index>{3, 1, 4, 15}));
-  EXPECT_EQ(bunny.line, 45);
+  EXPECT_EQ(bunny.line, 46);
 
   const SceneObject& cube = scene.objects[1];
   EXPECT_EQ(cube.name, "cube");  // the bundle's stem when no name is given
   EXPECT_EQ(cube.bundle, std::filesystem::path("scenes/other/cube.h5"));
-  EXPECT_EQ(cube.line, 73);
+  EXPECT_EQ(cube.line, 74);
 
   ASSERT_EQ(scene.projectiles.size(), 1u);
   const SceneProjectile& p = scene.projectiles[0];
@@ -191,7 +193,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(p.launch_time, 1.5);
   EXPECT_EQ(p.restitution, 0.8);
   EXPECT_EQ(p.friction, 0.1);
-  EXPECT_EQ(p.line, 76);
+  EXPECT_EQ(p.line, 77);
 }
 
 TEST(SceneReader, DefaultsApply) {

@@ -111,7 +111,8 @@ TEST(World, BitIdenticalAcrossThreadCountsAndRuns) {
 // History: taken at 32b2c8e before the player-structure work (issue 13) as
 // 8627ce68eb0cfbd6 (Haswell kernels, FMA contraction on) and held across that work's
 // refactoring; changed once, when the physics stopped contracting FMAs and the tests
-// moved to the Prescott kernels, to be the same on every x86-64 machine.
+// moved to the Prescott kernels, to be the same on every x86-64 machine; and again
+// when fragments started turning on arcs (issue 16, player/sim/rigid_rotation.h).
 #if defined(__x86_64__)
 TEST(World, BreakingSceneMatchesItsPinnedHash) {
   const std::uint64_t hash = run_breaking_scene(2).hash;
@@ -119,9 +120,9 @@ TEST(World, BreakingSceneMatchesItsPinnedHash) {
     const char* coretype = std::getenv("OPENBLAS_CORETYPE");
     ASSERT_TRUE(coretype != nullptr && std::string(coretype) == "Prescott")
         << "the pinned hash is of OpenBLAS's Prescott kernels: run through CTest, which sets OPENBLAS_CORETYPE";
-    EXPECT_EQ(hash, 0x10b09973ab511265ull);
+    EXPECT_EQ(hash, 0x8815e0b08529a60bull);
   } else {
-    EXPECT_EQ(hash, 0x16c43b6a90bbde7full);  // Eigen's Cholesky calls no BLAS
+    EXPECT_EQ(hash, 0x59b03d120ef14ac2ull);  // Eigen's Cholesky calls no BLAS
   }
 }
 #endif
@@ -384,6 +385,19 @@ struct StabilityScene {
 
 class Stability : public ::testing::TestWithParam<StabilityCase> {};
 
+/// The cases that still end above the energy they had (issue 16, open), all at dt = 0.1
+/// with a body that shatters. The likely cause, not yet proven: parts still joined at a
+/// node or an edge turn about that hinge, and such a turn still moves on a line
+/// (rigid_rotation.h turns whole fragments only). Measured peak ÷ available: ×1.1e4 and
+/// ×1.7e6 (the 300 m/s projectile, stiff), ×1.19 (projectile, ν = 0.499, E = 1e3),
+/// ×6.9e5, ×2.1 and ×3.5e8 (toughness 0). Before fragments turned on arcs, every stiff case at dt = 0.1 gained,
+/// by up to ×2e7, and the test could only ask for no runaway.
+bool still_gains_energy(const StabilityCase& c) {
+  const bool shatters = c.scenario == Scenario::Projectile || c.scenario == Scenario::Brittle;
+  const bool soft_and_compressible = c.poisson == 0.0 && c.youngs < 1e4;
+  return c.dt > 1e-3 && shatters && !soft_and_compressible;
+}
+
 TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
   const StabilityCase& c = GetParam();
   StabilityScene scene(c);
@@ -409,20 +423,13 @@ TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
   const double highest = std::max(first_half, second_half);
   std::printf("%-36s peak %9.3g J of %9.3g J available (×%.3g), second half / first half %.3g\n",
               case_name({c, 0}).c_str(), highest, available, highest / available, second_half / first_half);
-  if (c.dt < 1e-3) {
-    // Small steps: never more than the energy there was (+10 % and 1 mJ of slack).
-    // Measured: ×1.000 in every case. (×5.4 before the default spheres were shrunk to
-    // fit inside their tets: neighbours' spheres overlapped, and fragments were pushed apart.)
-    EXPECT_LE(highest, 1.1 * available + 1e-3);
-  } else {
-    // dt = 0.1 is not energy-bounded by the start: a step extrapolates a spinning body's
-    // nodes linearly, stretching it by ~(hω)²/2 (with E = 1e11 and hω = 0.3, ~1e6 J
-    // of strain in the first step, both stiffness models; see exact_stiffness_test).
-    // Measured worst peak: ×2e7 (the 300 m/s projectile, E = 1e11, ν = 0.499; ×3.2e9
-    // while contacts acted after the solve, when the stiff slivers also ran away).
-    // What must hold is that it does not run away: the second half of the run peaks at
-    // most 10× the first, plus 1 J (measured: ≤ 6.5×, the stiff incompressible sliver).
+  if (still_gains_energy(c)) {
+    // Open (issue 16): what is left is not to run away, the second half of the run
+    // peaking at most 10× the first, plus 1 J.
     EXPECT_LE(second_half, 10.0 * first_half + 1.0);
+  } else {
+    // Never more than there was, +1 % and 1 mJ.
+    EXPECT_LE(highest, 1.01 * available + 1e-3);
   }
 }
 
@@ -435,10 +442,10 @@ TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
 // The peak is chaotic: rounding-level changes (the batched element loop's FMA at rest,
 // a different noise seed) move it between 17 J and 3.2e4 J, with the same code before
 // and after that change (measured over seeds 1-8: before 21 J-2.9e4 J, after 17 J-3.2e4
-// J). The large peaks are the plate crushed into the ground and broken into some 30
-// fragments, holding elastic energy it releases only slowly: an honest limit of a
-// 1 mm steel plate stepped at 0.1 s, not a runaway. So, over several seeds: no growth
-// from the first half to the second, and a peak within 1e6 of the start.
+// J). Those peaks were the tumbling plate stretched by its own spin: each step moved
+// its nodes on lines, (hω)²/2 of strain in steel. Since fragments turn on arcs
+// (rigid_rotation.h, issue 16) the peak is the start's energy in every seed (measured
+// 0.099-0.113 J, nothing gained); so over several seeds the bound is now the real one.
 TEST(Stability, AStiffSliverOnTheGroundAtLargeStepsDoesNotRunAway) {
   for (unsigned seed = 1; seed <= 6; ++seed) {
     StabilityScene scene({0.0, 1e11, 0.1, Scenario::Sliver}, seed);
@@ -453,8 +460,7 @@ TEST(Stability, AStiffSliverOnTheGroundAtLargeStepsDoesNotRunAway) {
     std::printf("stiff sliver at dt = 0.1, seed %u: %.3g J → peak %.3g J in the first 6 s, %.3g J in the next 6 s, "
                 "%.3g J at the end\n",
                 seed, initial, first_half, second_half, last);
-    EXPECT_LE(second_half, first_half) << "seed " << seed;
-    EXPECT_LE(first_half, 1e6 * initial) << "seed " << seed;
+    EXPECT_LE(std::max(first_half, second_half), 1.01 * initial + 1e-3) << "seed " << seed;
   }
 }
 
