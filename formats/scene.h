@@ -108,6 +108,10 @@ enum class SceneCollisionMode { Spheres, Vertices };
 struct SceneSolverSettings {
   double dt = 1.0 / 240;  ///< [s] time step (the largest one when adaptive), in (0, 1]
   double min_dt = 0;      ///< [s] 0 = fixed dt; else adaptive between min_dt and dt
+  /// [s] a longer dt is taken in equal substeps no longer than this; 0 = never. 1/60 s:
+  /// the sample bunny hit by its ball keeps the energy bound at dt = 1/60 s and gains
+  /// ×1.3e13 at 1/30 s (BENCHMARKS.md, issue 16).
+  double max_substep = 1.0 / 60.0;
   SceneSolver solver = SceneSolver::ConjugateGradient;
   /// [-] relative residual of the linear solve, in (0, 1). 1e-4: at dt = 1/240 the
   /// solver then adds under 1% of the time-step error (BENCHMARKS.md, trade-off sweep);

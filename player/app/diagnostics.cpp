@@ -85,11 +85,11 @@ RunStop Diagnostics::energy_gain_stop(const sim::World& world, const sim::StepRe
     const bool split = std::any_of(report.splits.begin(), report.splits.end(), [&](const auto& s) { return s.first == worst; });
     who = "body '" + world.bodies()[worst].name + "' (now " + std::to_string(e.kinetic) + " J kinetic, " +
           std::to_string(e.elastic) + " J elastic)";
-    const double dt = world.settings().step.dt;
+    const double h = world.settings().step.dt / world.planned_substeps();
     if (split) {
       cause = "fracture: nodes split in this step and the two sides push apart";
-    } else if (dt > 1.0 / 60.0) {
-      cause = "the large step, solver.dt = " + std::to_string(dt) + " s: rotations and contacts lag within it";
+    } else if (h > 1.0 / 60.0) {
+      cause = "the large step, " + std::to_string(h) + " s (solver.dt and solver.max_substep): contacts lag within it";
     } else if (report.contacts.contacts > 0 && !elastic) {
       cause = "contacts pushing overlapping points apart";
     } else {
@@ -102,7 +102,7 @@ RunStop Diagnostics::energy_gain_stop(const sim::World& world, const sim::StepRe
                 energy, energy_initial + energy_put_in, 100.0 * kEnergyTolerance, allowed);
   return {"at step " + std::to_string(step) + " (t = " + std::to_string(world.time()) + " s) " + amounts +
               "; the largest gain is " + who + "; likely cause: " + cause,
-          "use a smaller solver.dt (or set solver.min_dt); the physics must not create energy, so please report "
+          "use a smaller solver.dt or solver.max_substep; the physics must not create energy, so please report "
           "the scene; --no-energy-check runs on to the end"};
 }
 

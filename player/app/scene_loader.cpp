@@ -139,6 +139,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
   settings.step.refactor_iterations = scene.solver.refactor_iterations;
   settings.rotate_on_arcs = scene.solver.rotation == formats::SceneRotation::Arc;
   settings.min_dt = scene.solver.min_dt;
+  settings.max_substep = scene.solver.max_substep;
   settings.fracture = scene.features.fracture;
   settings.max_splits_per_step = scene.solver.max_splits_per_step;
   settings.collisions = scene.features.collisions;

@@ -46,6 +46,18 @@ void check_time_step(double dt) {
   }
 }
 
+/// At most this many substeps per step, so a typo cannot make one step take hours.
+constexpr double kMostSubsteps = 10000;
+
+void check_max_substep(double dt, double max_substep) {
+  if (max_substep == 0.0) return;
+  if (!(max_substep > 0.0) || !std::isfinite(max_substep) || dt / max_substep > kMostSubsteps) {
+    throw Error("max_substep " + std::to_string(max_substep) + " s would split a step of " + std::to_string(dt) +
+                    " s into more than " + std::to_string(static_cast<int>(kMostSubsteps)) + " substeps",
+                "use 0 (never substep) or a max_substep of at least dt / 10000");
+  }
+}
+
 void check_points(const EmbeddedPoints& points, std::size_t tet_count, const std::string& what) {
   if (points.barycentric.size() != points.size() || points.radius.size() != points.size()) {
     throw Error(what + ": tet, barycentric and radius arrays differ in length", "rebake the bundle");
@@ -64,6 +76,7 @@ World::World(std::vector<BodyDescription> bodies, Environment environment, std::
              WorldSettings settings)
     : m_environment(std::move(environment)), m_projectiles(std::move(projectiles)), m_settings(settings) {
   check_time_step(settings.step.dt);
+  check_max_substep(settings.step.dt, settings.max_substep);
   m_bodies.reserve(bodies.size());
   for (BodyDescription& d : bodies) {
     const std::string where = "body '" + d.name + "'";
@@ -123,7 +136,10 @@ StepReport World::step() {
   m_checkpoint.projectiles = m_projectiles;
   m_checkpoint.impulses = m_contact_impulses;
   m_checkpoint.energy_put_in = m_energy_put_in;
-  report.status = advance(m_settings.step.dt, report, 0);
+  const int substeps = planned_substeps();
+  for (int i = 0; i < substeps && report.status.ok(); ++i) {
+    report.status = advance(m_settings.step.dt / substeps, report, 0);
+  }
   if (report.status.ok()) {
     if (const std::optional<Index> bad = first_non_finite(); bad) {
       report.status = {StepOutcome::NonFinite, *bad, SolveStatus::NonFinite, m_checkpoint.time, m_settings.step.dt};
@@ -139,6 +155,12 @@ StepReport World::step() {
   }
   report.total = seconds_since(start);
   return report;
+}
+
+int World::planned_substeps() const {
+  const double ratio = m_settings.max_substep > 0.0 ? m_settings.step.dt / m_settings.max_substep : 1.0;
+  // A dt within rounding of a whole number of substeps (1/30 s at 1/60 s) takes that many.
+  return std::max(1, static_cast<int>(std::ceil(ratio * (1.0 - 1e-12))));
 }
 
 StepStatus World::advance(double dt, StepReport& report, int depth) {
@@ -319,6 +341,7 @@ StepFailure World::explain(const StepStatus& status) const {
 
 void World::set_settings(const WorldSettings& settings) {
   check_time_step(settings.step.dt);
+  check_max_substep(settings.step.dt, settings.max_substep);
   m_settings = settings;
   for (Body& b : m_bodies) b.fracture.max_splits_per_step = settings.max_splits_per_step;
 }

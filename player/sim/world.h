@@ -37,6 +37,11 @@ struct BodyDescription {
 struct WorldSettings {
   StepSettings step;
   double min_dt = 0;  ///< > 0: a step whose solve fails is retried as two halves, down to this
+  /// A step longer than this is taken as equal substeps no longer than it, each with its
+  /// own fracture and contacts (0: never). Scenes default to 1/60 s (formats/scene.h):
+  /// the sample bunny hit by its ball keeps the energy bound at 1/60 s and gains ×1.3e13
+  /// at 1/30 s (BENCHMARKS.md, issue 16). The world itself steps what it is told.
+  double max_substep = 0.0;
   bool fracture = false;
   int max_splits_per_step = 64;
   bool collisions = true;
@@ -52,7 +57,7 @@ struct WorldSettings {
 /// happened, and a failed step leaves the world exactly as it was before it.
 enum class StepOutcome : std::uint8_t {
   Converged,    ///< one solve per body at dt (a CG solve may have hit its cap: see StepReport::unconverged)
-  Substepped,   ///< a solve failed at dt and the step was taken as halves (solver.min_dt)
+  Substepped,   ///< taken in substeps: dt above max_substep, or a failed solve retried as halves (min_dt)
   SolveFailed,  ///< a solve failed even at the smallest dt allowed: the world is unchanged
   NonFinite,    ///< the step produced a non-finite position or velocity: the world is unchanged
 };
@@ -153,6 +158,9 @@ class World {
   [[nodiscard]] const std::vector<Projectile>& projectiles() const { return m_projectiles; }
   [[nodiscard]] const Environment& environment() const { return m_environment; }
   [[nodiscard]] const WorldSettings& settings() const { return m_settings; }
+  /// How many equal substeps a step is taken in (WorldSettings::max_substep), before any
+  /// halving of a failed solve.
+  [[nodiscard]] int planned_substeps() const;
   /// Body `body` as it is now. Its deformation gradients are computed on the first call
   /// after a step that asks for them (one pass over the tets), so a world nobody reads
   /// them from never pays; without them `deformation` is empty.

@@ -28,6 +28,7 @@ void expect_parse_error(const std::string& text, std::initializer_list<std::stri
 constexpr const char* kFullScene = R"([solver]
 dt = 0.01
 min_dt = 0.001
+max_substep = 0.002
 solver = "direct"
 tolerance = 1e-4
 max_iterations = 50
@@ -117,6 +118,7 @@ TEST(SceneReader, ReadsEveryField) {
 
   EXPECT_EQ(scene.solver.dt, 0.01);
   EXPECT_EQ(scene.solver.min_dt, 0.001);
+  EXPECT_EQ(scene.solver.max_substep, 0.002);
   EXPECT_EQ(scene.solver.solver, SceneSolver::Direct);
   EXPECT_EQ(scene.solver.tolerance, 1e-4);
   EXPECT_EQ(scene.solver.max_iterations, 50);
@@ -177,12 +179,12 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(bunny.pin_boxes[0].min, Vec3(-1, -1, 0));
   EXPECT_EQ(bunny.pin_boxes[0].max, Vec3(1, 1, 0.1));
   EXPECT_EQ(bunny.pin_nodes, (std::vector<Index>{3, 1, 4, 15}));
-  EXPECT_EQ(bunny.line, 46);
+  EXPECT_EQ(bunny.line, 47);
 
   const SceneObject& cube = scene.objects[1];
   EXPECT_EQ(cube.name, "cube");  // the bundle's stem when no name is given
   EXPECT_EQ(cube.bundle, std::filesystem::path("scenes/other/cube.h5"));
-  EXPECT_EQ(cube.line, 74);
+  EXPECT_EQ(cube.line, 75);
 
   ASSERT_EQ(scene.projectiles.size(), 1u);
   const SceneProjectile& p = scene.projectiles[0];
@@ -193,7 +195,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(p.launch_time, 1.5);
   EXPECT_EQ(p.restitution, 0.8);
   EXPECT_EQ(p.friction, 0.1);
-  EXPECT_EQ(p.line, 77);
+  EXPECT_EQ(p.line, 78);
 }
 
 TEST(SceneReader, DefaultsApply) {

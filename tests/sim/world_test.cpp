@@ -15,6 +15,7 @@
 #include "common/error.h"
 #include "tests/support/procedural.h"
 #include "tests/support/sim_fixtures.h"
+#include "tests/support/temp_dir.h"
 
 namespace fissure::sim {
 namespace {
@@ -126,6 +127,34 @@ TEST(World, BreakingSceneMatchesItsPinnedHash) {
   }
 }
 #endif
+
+// A step above max_substep is its substeps, each with its own fracture and contacts:
+// bit for bit what the same world does when stepped at the substep itself.
+TEST(World, AStepAboveMaxSubstepIsItsSubstepsTakenOneByOne) {
+  testing::SceneParts coarse = testing::breaking_bar(), fine = testing::breaking_bar();
+  fine.settings.step.dt = 1.0 / 240.0;
+  fine.settings.max_substep = 0.0;
+  coarse.settings.step.dt = 3.0 / 240.0;
+  coarse.settings.max_substep = 1.0 / 240.0;
+  const auto a = coarse.make(), b = fine.make();
+  EXPECT_EQ(a->planned_substeps(), 3);
+  EXPECT_EQ(b->planned_substeps(), 1);
+  std::size_t splits = 0;
+  for (int i = 0; i < 40; ++i) {
+    const StepReport report = a->step();
+    ASSERT_TRUE(report.status.ok());
+    EXPECT_EQ(report.substeps, 3);
+    splits += report.splits.size();
+    for (int k = 0; k < 3; ++k) ASSERT_TRUE(b->step().status.ok());
+  }
+  ASSERT_GT(splits, 0u) << "the ball should have broken the bar by now";
+  EXPECT_EQ(a->bodies()[0].integrator().positions(), b->bodies()[0].integrator().positions());
+  EXPECT_EQ(a->bodies()[0].topology.tet_fragment(), b->bodies()[0].topology.tet_fragment());
+  EXPECT_EQ(a->time(), b->time());
+  // More than 10,000 substeps per step is refused.
+  coarse.settings.max_substep = coarse.settings.step.dt / 20000;
+  testing::expect_error_containing([&] { (void)coarse.make(); }, {"max_substep", "10000"});
+}
 
 /// The breaking scene's world, and a twin stepped in lockstep; at the first step that
 /// splits nodes, the twin's step fails (a NaN gravity makes the solve non-finite) after
@@ -390,8 +419,8 @@ class Stability : public ::testing::TestWithParam<StabilityCase> {};
 /// node or an edge turn about that hinge, and such a turn still moves on a line
 /// (rigid_rotation.h turns whole fragments only). Measured peak ÷ available: ×1.1e4 and
 /// ×1.7e6 (the 300 m/s projectile, stiff), ×1.19 (projectile, ν = 0.499, E = 1e3),
-/// ×6.9e5, ×2.1 and ×3.5e8 (toughness 0). Before fragments turned on arcs, every stiff case at dt = 0.1 gained,
-/// by up to ×2e7, and the test could only ask for no runaway.
+/// ×6.9e5, ×2.1 and ×3.5e8 (toughness 0). Before fragments turned on arcs, every stiff
+/// case at dt = 0.1 gained, by up to ×2e7, and the test could only ask for no runaway.
 bool still_gains_energy(const StabilityCase& c) {
   const bool shatters = c.scenario == Scenario::Projectile || c.scenario == Scenario::Brittle;
   const bool soft_and_compressible = c.poisson == 0.0 && c.youngs < 1e4;
