@@ -333,12 +333,14 @@ void read_box_corners(const Table& t, Vec3& min, Vec3& max) {
 }
 
 void read_solver(const Table& t, SceneSolverSettings& s) {
-  t.allow_only({"dt", "min_dt", "max_substep", "solver", "tolerance", "max_iterations", "preconditioner", "refactor_iterations",
-                "stiffness", "rotation", "threads", "max_splits_per_step"});
+  t.allow_only({"dt", "min_dt", "max_substep", "solver", "tolerance", "max_iterations", "preconditioner",
+                "refactor_iterations", "stiffness", "rotation", "threads", "max_splits_per_step"});
   t.read_number("dt", s.dt, [](double v) { return v > 0 && v <= 1; }, "0 < dt <= 1 [s]");
   t.read_number("min_dt", s.min_dt, [&](double v) { return v >= 0 && v <= s.dt; },
                 "0 <= min_dt <= dt (= " + format_number(s.dt) + ") [s]; 0 means a fixed step");
-  t.read_number("max_substep", s.max_substep, [&](double v) { return v == 0 || (v > 0 && v <= 1 && s.dt / v <= 10000); },
+  // The 10,000 matches sim::World's own limit, so the scene's line is named first.
+  t.read_number("max_substep", s.max_substep,
+                [&](double v) { return v == 0 || (v > 0 && v <= 1 && s.dt / v <= 10000); },
                 "max_substep = 0 (never substep) or dt / 10000 <= max_substep <= 1 [s]");
   t.read_choice("solver", s.solver, {{"direct", SceneSolver::Direct}, {"cg", SceneSolver::ConjugateGradient}});
   t.read_number("tolerance", s.tolerance, [](double v) { return v > 0 && v < 1; }, "0 < tolerance < 1 (relative residual)");

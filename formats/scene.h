@@ -124,7 +124,7 @@ struct SceneSolverSettings {
   /// How a fragment's rigid turn within a step is applied (sim/rigid_rotation.h).
   SceneRotation rotation = SceneRotation::Arc;
   int threads = 0;               ///< 0 = all cores
-  int max_splits_per_step = 64;  ///< fracture splits per step, ≥ 0 (0 = none)
+  int max_splits_per_step = 64;  ///< fracture splits per step (per substep, see max_substep), ≥ 0 (0 = none)
 };
 
 struct SceneFeatures {

@@ -43,7 +43,7 @@ struct WorldSettings {
   /// at 1/30 s (BENCHMARKS.md, issue 16). The world itself steps what it is told.
   double max_substep = 0.0;
   bool fracture = false;
-  int max_splits_per_step = 64;
+  int max_splits_per_step = 64;  ///< per substep: each substep runs fracture
   bool collisions = true;
   bool self_collision = false;
   CollisionPoints collision_points = CollisionPoints::Spheres;
