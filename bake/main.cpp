@@ -8,12 +8,15 @@
 #include <cstdio>
 #include <optional>
 #include <iostream>
+#include <filesystem>
 #include <memory>
+#include <vector>
 
 #include "bake/bake.h"
 #include "bake/replication.h"
 #include "common/error.h"
 #include "common/log.h"
+#include "common/output_file.h"
 #include "formats/bundle_checks.h"
 #include "formats/bundle_inspect.h"
 #include "formats/bundle.h"
@@ -22,7 +25,16 @@ namespace {
 
 using namespace fissure;
 
+/// The cage as given, and the other half of a TetGen .node/.ele pair.
+std::vector<std::filesystem::path> bake_inputs(const std::filesystem::path& mesh, const std::filesystem::path& cage) {
+  std::vector<std::filesystem::path> inputs{mesh, cage};
+  for (const char* extension : {".node", ".ele"}) inputs.push_back(std::filesystem::path(cage).replace_extension(extension));
+  return inputs;
+}
+
 int run_bake(const std::string& mesh, const std::string& cage, const std::string& output, const bake::BakeOptions& options) {
+  // A bad output path fails now, not after the bake.
+  check_output_path(output, bake_inputs(mesh, cage), "-o");
   const StageTimer total("bake total");
   const formats::Bundle bundle = bake::bake_files(mesh, cage, options);
   // The bake checks its own result before writing: a bundle on disk always verifies.
@@ -66,6 +78,7 @@ int run_verify(const std::string& path) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  fissure::install_output_signal_handlers();
   CLI::App app{"fissure-bake: embed a render mesh in a tetrahedral cage and write a Fissure bundle (HDF5)."};
   app.set_version_flag("--version", fissure::bake::generator_string());
   app.require_subcommand(1);
@@ -73,7 +86,7 @@ int main(int argc, char** argv) {
   int threads = 0;
   app.add_flag("-q,--quiet", quiet, "Print only warnings, errors and the result");
   app.add_flag("-v,--verbose", verbose, "Print debug detail");
-  app.add_option("-j,--threads", threads, "Worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
+  app.add_option("-j,--threads", threads, "Worker threads (default: all cores)")->check(CLI::Range(0, kMaxThreads));
 
   fissure::bake::BakeOptions options;
   std::string mesh, cage, output;

@@ -28,4 +28,9 @@ using Matrix3Xu = Eigen::Matrix<Index, 3, Eigen::Dynamic>;
 using Matrix4Xu = Eigen::Matrix<Index, 4, Eigen::Dynamic>;
 using Matrix2Xu = Eigen::Matrix<Index, 2, Eigen::Dynamic>;
 
+/// The most worker threads a CLI option or scene may ask for. Fixed rather than tied
+/// to the machine, so a scene valid on one machine is valid on every one; above the
+/// cores present, more threads only cost memory (each has its own stack and scratch).
+inline constexpr int kMaxThreads = 256;
+
 }  // namespace fissure

@@ -1,12 +1,12 @@
 #include "formats/hdf5_io.h"
 
-#include <unistd.h>
-
 #include <algorithm>
+#include <cstdint>
 #include <system_error>
 #include <numeric>
 
 #include "common/error.h"
+#include "common/output_file.h"
 
 namespace fissure::formats::h5 {
 namespace {
@@ -46,40 +46,83 @@ Handle no_time_tracking(hid_t property_class) {
 
 constexpr hsize_t kChunkThreshold = 4096;  // elements; smaller datasets stay contiguous
 constexpr hsize_t kChunkBytes = 1 << 20;   // about 1 MiB per chunk
+// Deflate cannot expand data by more than 1032:1; shuffle and checksums add nothing.
+// A dataset whose shape claims more than this from its stored bytes is corrupt, and
+// is refused before anything is allocated for it.
+constexpr long double kMaxExpansion = 1040.0L;
+constexpr std::size_t kMemoryFileIncrement = 4 << 20;  // the in-memory file grows 4 MiB at a time
+
+/// Bob Jenkins' lookup3 hash (hashlittle), the checksum HDF5 puts on its metadata.
+std::uint32_t lookup3(const unsigned char* bytes, std::size_t length, std::uint32_t initial) {
+  const auto rotate = [](std::uint32_t x, int k) { return (x << k) | (x >> (32 - k)); };
+  const auto word = [](const unsigned char* p) {
+    return std::uint32_t{p[0]} | std::uint32_t{p[1]} << 8 | std::uint32_t{p[2]} << 16 | std::uint32_t{p[3]} << 24;
+  };
+  std::uint32_t a = 0xdeadbeefu + static_cast<std::uint32_t>(length) + initial, b = a, c = a;
+  for (; length > 12; length -= 12, bytes += 12) {
+    a += word(bytes), b += word(bytes + 4), c += word(bytes + 8);
+    a -= c, a ^= rotate(c, 4), c += b, b -= a, b ^= rotate(a, 6), a += c;
+    c -= b, c ^= rotate(b, 8), b += a, a -= c, a ^= rotate(c, 16), c += b;
+    b -= a, b ^= rotate(a, 19), a += c, c -= b, c ^= rotate(b, 4), b += a;
+  }
+  if (length == 0) return c;
+  unsigned char tail[12] = {};
+  std::copy(bytes, bytes + length, tail);
+  a += word(tail), b += word(tail + 4), c += word(tail + 8);
+  c ^= b, c -= rotate(b, 14), a ^= c, a -= rotate(c, 11), b ^= a, b -= rotate(a, 25);
+  c ^= b, c -= rotate(b, 16), a ^= c, a -= rotate(c, 4), b ^= a, b -= rotate(a, 14);
+  c ^= b, c -= rotate(b, 24);
+  return c;
+}
+
+/// HDF5 1.10's H5Fget_file_image clears the superblock's "open for writing" flags in
+/// the image but keeps the checksum of the flags set, so the image would not open.
+/// Recomputes the checksum of a version-2 superblock at offset 0 (what we write).
+void repair_superblock_checksum(std::vector<char>& image) {
+  constexpr std::size_t kChecked = 44;  // signature … root object header address (8-byte offsets)
+  static constexpr char kSignature[] = "\x89HDF\r\n\x1a\n";
+  if (image.size() < kChecked + 4 || !std::equal(kSignature, kSignature + 8, image.begin()) || image[8] != 2 ||
+      image[9] != 8) {
+    throw Error("HDF5: unexpected superblock in the file image", "this is a bug; please report it");
+  }
+  const std::uint32_t sum = lookup3(reinterpret_cast<const unsigned char*>(image.data()), kChecked, 0);
+  for (int k = 0; k < 4; ++k) image[kChecked + k] = static_cast<char>((sum >> (8 * k)) & 0xff);
+}
 
 }  // namespace
 
 void silence_library_errors() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
 
-Handle create_file(const std::string& path) {
-  silence_library_errors();
-  // The root group is created with the file: switch its timestamps off too.
-  const Handle fcpl = no_time_tracking(H5P_FILE_CREATE);
-  Handle file(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, fcpl.id(), H5P_DEFAULT), H5Fclose);
-  if (!file.valid()) throw Error(path + ": cannot create the file", "check that the directory exists and is writable");
-  return file;
-}
-
 void write_file_atomically(const std::filesystem::path& path, const std::function<void(hid_t file)>& write) {
-  const std::filesystem::path temporary = path.string() + ".tmp-" + std::to_string(static_cast<long>(::getpid()));
-  try {
-    {
-      const Handle file = create_file(temporary.string());
-      try {
-        write(file.id());
-      } catch (const Error& e) {
-        throw Error(path.string() + ": " + e.what(), e.hint());
-      }
-      if (H5Fflush(file.id(), H5F_SCOPE_GLOBAL) < 0) throw Error(temporary.string() + ": flushing failed");
+  silence_library_errors();
+  // Built in memory, then written with plain POSIX I/O: HDF5 never touches the disk, so
+  // a full disk is one clean write error (HDF5 1.10 segfaults at exit when a file it
+  // failed to flush is still open), and a reader never sees a half-written file.
+  const Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  check(H5Pset_fapl_core(fapl.id(), kMemoryFileIncrement, false), "in-memory file driver");
+  // The 1.8 file format checksums every object header and the superblock, so a
+  // corrupted byte in a bundle's metadata is detected before it is parsed.
+  check(H5Pset_libver_bounds(fapl.id(), H5F_LIBVER_V18, H5F_LIBVER_V18), "file format version");
+  const Handle fcpl = no_time_tracking(H5P_FILE_CREATE);
+  std::vector<char> image;
+  {
+    const Handle file(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, fcpl.id(), fapl.id()), H5Fclose);
+    if (!file.valid()) throw Error(path.string() + ": cannot create the HDF5 file in memory");
+    try {
+      write(file.id());
+    } catch (const Error& e) {
+      throw Error(path.string() + ": " + e.what(), e.hint());
     }
-    std::error_code ec;
-    std::filesystem::rename(temporary, path, ec);
-    if (ec) throw Error(path.string() + ": cannot move the finished file into place: " + ec.message());
-  } catch (...) {
-    std::error_code ignored;
-    std::filesystem::remove(temporary, ignored);
-    throw;
+    check(H5Fflush(file.id(), H5F_SCOPE_GLOBAL), "flushing " + path.string());
+    const ssize_t size = H5Fget_file_image(file.id(), nullptr, 0);
+    if (size < 0) throw Error("HDF5: cannot size the file image of " + path.string());
+    image.resize(static_cast<std::size_t>(size));
+    if (H5Fget_file_image(file.id(), image.data(), image.size()) != size) {
+      throw Error("HDF5: cannot copy the file image of " + path.string());
+    }
   }
+  repair_superblock_checksum(image);
+  fissure::write_file_atomically(path, std::string_view(image.data(), image.size()));
 }
 
 Handle open_file_read_only(const std::string& path) {
@@ -138,10 +181,34 @@ std::optional<std::vector<hsize_t>> dataset_shape(hid_t parent, const std::strin
   if (!dataset.valid()) return std::nullopt;
   Handle space(H5Dget_space(dataset.id()), H5Sclose);
   const int rank = H5Sget_simple_extent_ndims(space.id());
-  if (rank < 0) return std::nullopt;
+  if (rank < 0 || rank > H5S_MAX_RANK) return std::nullopt;
   std::vector<hsize_t> shape(static_cast<std::size_t>(rank));
   H5Sget_simple_extent_dims(space.id(), shape.data(), nullptr);
+  require_backed_by_file(dataset.id(), name, shape);
   return shape;
+}
+
+void require_backed_by_file(hid_t dataset, const std::string& name, const std::vector<hsize_t>& shape) {
+  const Handle type(H5Dget_type(dataset), H5Tclose);
+  const std::size_t element_bytes = type.valid() ? H5Tget_size(type.id()) : 0;
+  if (element_bytes == 0) throw Error("HDF5: dataset " + name + " has no valid element type");
+  // Bytes the file holds for it: what is allocated, and never more than the file.
+  const Handle file(H5Iget_file_id(dataset), H5Fclose);
+  hsize_t file_bytes = 0;
+  if (!file.valid() || H5Fget_filesize(file.id(), &file_bytes) < 0) file_bytes = 0;
+  const hsize_t stored = std::min<hsize_t>(H5Dget_storage_size(dataset), file_bytes);
+  const Handle dcpl(H5Dget_create_plist(dataset), H5Pclose);
+  const bool filtered = dcpl.valid() && H5Pget_nfilters(dcpl.id()) > 0;
+  const long double backed = static_cast<long double>(stored) * (filtered ? kMaxExpansion : 1.0L);
+  long double claimed = static_cast<long double>(element_bytes);
+  for (const hsize_t extent : shape) claimed *= static_cast<long double>(extent);
+  if (claimed > backed) {
+    std::string dims;
+    for (const hsize_t extent : shape) dims += (dims.empty() ? "" : ",") + std::to_string(extent);
+    throw Error("HDF5: dataset " + name + " claims shape [" + dims + "] (" + std::to_string(static_cast<double>(claimed)) +
+                    " bytes) but the file holds only " + std::to_string(stored) + " bytes of it",
+                "the file is corrupt or truncated; re-create it");
+  }
 }
 
 void read_dataset(hid_t parent, const std::string& name, ElementType type, void* data) {

@@ -50,10 +50,10 @@ class Handle {
 /// Silences HDF5's own error stack printing; we report errors ourselves.
 void silence_library_errors();
 
-Handle create_file(const std::string& path);
-/// Creates `path` through a temporary file beside it, renamed over it only once
-/// `write` has returned and the data is flushed: a reader never sees a half-written
-/// file, and a failure leaves no file behind. Errors are prefixed with the path.
+/// Creates `path`: `write` fills an HDF5 file built in memory (1.8 file format, whose
+/// metadata is checksummed), which is then written through a temporary beside `path`
+/// and renamed over it (common/output_file.h): a reader never sees a half-written file,
+/// and a failure, a signal or a full disk leaves no file behind. Errors name the path.
 void write_file_atomically(const std::filesystem::path& path, const std::function<void(hid_t file)>& write);
 Handle open_file_read_only(const std::string& path);
 Handle create_group(hid_t parent, const std::string& name);
@@ -67,8 +67,13 @@ enum class ElementType { F64, U32, U8, U64, I32 };
 void write_dataset(hid_t parent, const std::string& name, ElementType type, const std::vector<hsize_t>& shape,
                    const void* data);
 
-/// Shape of a dataset, or nullopt if it does not exist.
+/// Shape of a dataset, or nullopt if it does not exist. Throws fissure::Error when the
+/// shape claims more data than the file can hold (require_backed_by_file), so callers
+/// may allocate what it says.
 std::optional<std::vector<hsize_t>> dataset_shape(hid_t parent, const std::string& name);
+/// Throws fissure::Error when `shape` of `dataset` needs more bytes than its storage in
+/// the file could expand to: a corrupted dimension must fail before an allocation.
+void require_backed_by_file(hid_t dataset, const std::string& name, const std::vector<hsize_t>& shape);
 /// Reads a whole dataset, converting to `type` in memory. `data` must hold the product of its shape.
 void read_dataset(hid_t parent, const std::string& name, ElementType type, void* data);
 /// Bytes the dataset occupies in the file (after compression).

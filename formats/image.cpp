@@ -8,21 +8,18 @@
 #define STBI_ONLY_PNG
 #include <stb/stb_image.h>
 
-#include <cstdio>
 #include <memory>
-#include <system_error>
+#include <string>
 
 #include "common/error.h"
+#include "common/output_file.h"
 
 namespace fissure::formats {
 
 namespace {
 
-void write_to_file(void* context, void* data, int size) {
-  std::FILE* file = static_cast<std::FILE*>(context);
-  if (std::fwrite(data, 1, static_cast<std::size_t>(size), file) != static_cast<std::size_t>(size)) {
-    // stb cannot report it; ferror is checked after.
-  }
+void append_to_string(void* context, void* data, int size) {
+  static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<std::size_t>(size));
 }
 
 }  // namespace
@@ -34,20 +31,12 @@ void write_png(const std::filesystem::path& path, const Image& image) {
                     " with " + std::to_string(image.rgba.size()) + " bytes",
                 "this is a bug; please report it");
   }
-  const std::filesystem::path temporary = path.string() + ".tmp";
-  std::FILE* file = std::fopen(temporary.c_str(), "wb");
-  if (file == nullptr) {
-    throw Error(path.string() + ": cannot create the file", "check the folder exists and is writable");
-  }
-  const int ok = stbi_write_png_to_func(write_to_file, file, image.width, image.height, 4, image.rgba.data(),
+  std::string bytes;
+  const int ok = stbi_write_png_to_func(append_to_string, &bytes, image.width, image.height, 4, image.rgba.data(),
                                         4 * image.width);
-  const bool failed = ok == 0 || std::ferror(file) != 0;
-  if (std::fclose(file) != 0 || failed) {
-    std::error_code ignored;
-    std::filesystem::remove(temporary, ignored);
-    throw Error(path.string() + ": cannot write the image", "check the disk has space and the folder is writable");
-  }
-  std::filesystem::rename(temporary, path);
+  if (ok == 0) throw Error(path.string() + ": cannot encode the image", "this is a bug; please report it");
+  // No fsync: frames are cheap to remake, and a run writes hundreds of them.
+  write_file_atomically(path, bytes, /*sync=*/false);
 }
 
 Image read_png(const std::filesystem::path& path) {

@@ -350,7 +350,7 @@ void read_solver(const Table& t, SceneSolverSettings& s) {
   t.read_integer("refactor_iterations", s.refactor_iterations, 1, INT_MAX, "an integer >= 1");
   t.read_choice("stiffness", s.stiffness, {{"warped", SceneStiffness::Warped}, {"exact", SceneStiffness::Exact}});
   t.read_choice("rotation", s.rotation, {{"arc", SceneRotation::Arc}, {"line", SceneRotation::Line}});
-  t.read_integer("threads", s.threads, 0, INT_MAX, "an integer >= 0 (0 = all cores)");
+  t.read_integer("threads", s.threads, 0, kMaxThreads, "an integer in 0 … " + std::to_string(kMaxThreads) + " (0 = all cores)");
   t.read_integer("max_splits_per_step", s.max_splits_per_step, 0, INT_MAX, "an integer >= 0");
 }
 

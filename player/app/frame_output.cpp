@@ -2,10 +2,10 @@
 
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 
 #include "common/error.h"
 #include "common/json_writer.h"
+#include "common/output_file.h"
 #include "common/log.h"
 #include "formats/image.h"
 
@@ -105,13 +105,7 @@ void FrameOutput::finish() {
   }
   json.end_array();
   json.end_object();
-  const std::filesystem::path path = m_options.frames / "frames.json", temporary = path.string() + ".tmp";
-  {
-    std::ofstream out(temporary);
-    out << json.str() << '\n';
-    if (!out) throw Error(path.string() + ": cannot write the frame records", "check the disk has space");
-  }
-  std::filesystem::rename(temporary, path);
+  write_file_atomically(m_options.frames / "frames.json", json.str() + "\n");
 }
 
 }  // namespace fissure::player

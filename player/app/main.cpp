@@ -10,11 +10,13 @@
 
 #include "common/error.h"
 #include "common/log.h"
+#include "common/output_file.h"
 #include "formats/scene.h"
 #include "player/app/run.h"
 #include "player/view/viewer.h"
 
 int main(int argc, char** argv) {
+  fissure::install_output_signal_handlers();
   using namespace fissure;
   CLI::App app{"fissure-player: simulate baked Fissure bundles (corotational FEM, fracture, sphere collisions)"};
   app.require_subcommand(1);
@@ -62,7 +64,8 @@ int main(int argc, char** argv) {
                 "Report a run that creates energy, but run it on to the end (by default it stops with exit 1)");
   run->add_flag("--no-diagnostics", no_diagnostics,
                 "Skip the per-step energy and penetration checks (the report then has no energy or penetration)");
-  run->add_option("-j,--threads", threads, "Worker threads (default: solver.threads of the scene; 0 = all cores)");
+  run->add_option("-j,--threads", threads, "Worker threads (default: solver.threads of the scene; 0 = all cores)")
+      ->check(CLI::Range(0, kMaxThreads));
 
   CLI::App* view = app.add_subcommand("view", "Play a scene in a window, with a panel to break and tune it live");
   std::string view_scene_path, view_size = "1280x720";

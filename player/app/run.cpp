@@ -3,12 +3,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <optional>
 
 #include "common/error.h"
 #include "common/log.h"
+#include "common/output_file.h"
 #include "player/app/diagnostics.h"
 #include "player/app/run_loop.h"
 #include "player/app/run_report.h"
@@ -98,10 +100,25 @@ void print_images(const FrameOptions& options, const FrameOutput& images) {
   if (!options.video.empty()) std::printf("video      %s\n", options.video.string().c_str());
 }
 
+/// Outputs fail before the run when they cannot be written or would replace an input.
+void check_outputs(const formats::Scene& scene, const RunOptions& options) {
+  std::vector<std::filesystem::path> inputs{scene.file};
+  for (const formats::SceneObject& object : scene.objects) inputs.push_back(object.bundle);
+  if (!options.report.empty()) check_output_path(options.report, inputs, "--report");
+  if (!options.trajectory.empty()) check_output_path(options.trajectory, inputs, "--trajectory");
+  if (!options.images.video.empty()) check_output_path(options.images.video, inputs, "--video");
+  const auto& frames = options.images.frames;
+  std::error_code ec;
+  if (!frames.empty() && std::filesystem::exists(frames, ec) && !std::filesystem::is_directory(frames, ec)) {
+    throw Error("--frames " + frames.string() + ": is a file, not a folder", "give a folder for the frames");
+  }
+}
+
 }  // namespace
 
 int run_scene(const formats::Scene& scene, const RunOptions& options) {
   if (options.steps < 0) throw Error("--steps " + std::to_string(options.steps) + " is negative", "give 0 or more steps");
+  check_outputs(scene, options);
   std::optional<TrajectoryRecorder> trajectory;
   if (!options.trajectory.empty()) {
     trajectory.emplace(options.trajectory, scene.file.filename().string(), options.trajectory_every);

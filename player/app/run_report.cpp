@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <fstream>
 
 #include "common/error.h"
 #include "common/json_writer.h"
+#include "common/output_file.h"
 
 namespace fissure::player {
 
@@ -177,17 +177,7 @@ void write_report(const std::filesystem::path& path, const sim::World& world, co
   write_timings(json, run);
   write_summary(json, world, run);
   json.end_object();
-  const std::filesystem::path temporary = path.string() + ".tmp";
-  {
-    std::ofstream out(temporary);
-    out << json.str() << '\n';
-    if (!out) {
-      std::error_code ignored;
-      std::filesystem::remove(temporary, ignored);
-      throw Error(path.string() + ": cannot write the report", "check the folder exists and is writable");
-    }
-  }
-  std::filesystem::rename(temporary, path);
+  write_file_atomically(path, json.str() + "\n");
 }
 
 }  // namespace fissure::player

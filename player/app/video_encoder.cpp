@@ -3,7 +3,6 @@
 #include <csignal>
 #include <cstdlib>
 #include <string>
-#include <system_error>
 
 #include "common/error.h"
 
@@ -24,7 +23,7 @@ bool VideoEncoder::available() { return std::system("command -v ffmpeg >/dev/nul
 
 VideoEncoder::VideoEncoder(std::filesystem::path path, int width, int height, int fps)
     : m_path(std::move(path)),
-      m_temporary(m_path.parent_path() / (".tmp-" + m_path.filename().string())),
+      m_temporary(m_path),
       m_frame_bytes(4 * static_cast<std::size_t>(width) * static_cast<std::size_t>(height)) {
   if (!available()) {
     throw Error("--video " + m_path.string() + ": ffmpeg is not installed", "install it (apt-get install ffmpeg), or write --frames");
@@ -36,7 +35,7 @@ VideoEncoder::VideoEncoder(std::filesystem::path path, int width, int height, in
       "ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt rgba -s " + std::to_string(width) + "x" +
       std::to_string(height) + " -r " + std::to_string(fps) +
       " -i - -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -c:v libx264 -preset veryfast -crf 20 -pix_fmt yuv420p"
-      " -movflags +faststart -f mp4 " + shell_quoted(m_temporary.string());
+      " -movflags +faststart -f mp4 " + shell_quoted(m_temporary.path().string());
   m_pipe = popen(command.c_str(), "w");
   if (m_pipe == nullptr) throw Error("--video " + m_path.string() + ": cannot start ffmpeg", "check ffmpeg runs");
 }
@@ -44,8 +43,6 @@ VideoEncoder::VideoEncoder(std::filesystem::path path, int width, int height, in
 VideoEncoder::~VideoEncoder() {
   if (m_pipe == nullptr) return;
   pclose(m_pipe);
-  std::error_code ignored;
-  std::filesystem::remove(m_temporary, ignored);
 }
 
 void VideoEncoder::add(const std::vector<std::uint8_t>& rgba) {
@@ -58,12 +55,10 @@ void VideoEncoder::finish() {
   const int status = pclose(m_pipe);
   m_pipe = nullptr;
   if (status != 0) {
-    std::error_code ignored;
-    std::filesystem::remove(m_temporary, ignored);
     throw Error("--video " + m_path.string() + ": ffmpeg failed (status " + std::to_string(status) + ")",
                 "see ffmpeg's messages above; check the folder is writable");
   }
-  std::filesystem::rename(m_temporary, m_path);
+  m_temporary.commit();
 }
 
 }  // namespace fissure::player

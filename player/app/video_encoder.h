@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <vector>
 
+#include "common/output_file.h"
+
 namespace fissure::player {
 
 class VideoEncoder {
@@ -29,7 +31,8 @@ class VideoEncoder {
   [[nodiscard]] static bool available();
 
  private:
-  std::filesystem::path m_path, m_temporary;
+  std::filesystem::path m_path;
+  TemporaryOutput m_temporary;  ///< what ffmpeg writes; removed unless finished
   std::size_t m_frame_bytes;
   std::FILE* m_pipe = nullptr;
 };

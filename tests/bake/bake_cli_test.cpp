@@ -72,6 +72,35 @@ TEST(BakeCli, ErrorsExitOneNameTheFileAndWriteNothing) {
   }
 }
 
+TEST(BakeCli, AnOutputThatWouldDestroyAnInputOrCannotBeWrittenFailsBeforeTheBake) {
+  testing::TempDir dir;
+  const auto mesh = dir / "mesh.obj";
+  std::filesystem::copy_file(kMesh, mesh);
+  const std::string before = bytes_of(mesh);
+  const std::string inputs = "bake --mesh " + quoted(mesh) + " --cage " + quoted(kCage) + " -o ";
+  const auto refused = [&](const std::filesystem::path& output, const std::string& part) {
+    const Result r = run(inputs + quoted(output));
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_NE(r.output.find(part), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("assign:"), std::string::npos) << "the bake ran before the check\n" << r.output;
+  };
+  refused(mesh, "is the input");
+  refused(std::filesystem::path(kCage).replace_extension(".ele"), "is the input");  // the pair's other half
+  refused(dir.path(), "is a directory");
+  refused(dir / "missing" / "b.h5", "does not exist");
+  EXPECT_EQ(bytes_of(mesh), before);
+}
+
+TEST(BakeCli, AFullDiskIsExitOneWithNothingLeftBehind) {
+  testing::TempDir dir;
+  // A file-size limit (ulimit -f) fails the write as a full disk would.
+  const Result r = testing::run_command("ulimit -f 64; exec " + std::string(FISSURE_BAKE_EXE) + " -q bake --mesh " +
+                                        quoted(kMesh) + " --cage " + quoted(kCage) + " -o " + quoted(dir / "b.h5"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("b.h5: cannot write: the file exceeds the size limit"), std::string::npos) << r.output;
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
+}
+
 TEST(BakeCli, StageOptionsChooseTheGroupsWritten) {
   testing::TempDir dir;
   const std::string inputs = " --mesh " + quoted(kMesh) + " --cage " + quoted(kCage);

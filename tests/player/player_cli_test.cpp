@@ -179,6 +179,34 @@ TEST_F(PlayerCli, ARunThatCreatesEnergyStopsWithExit1AndSaysWhereAndWhy) {
   EXPECT_NE(read_text(report).find("\"energy_gain\":\"at step 1 "), std::string::npos);
 }
 
+TEST_F(PlayerCli, OutputsThatWouldReplaceTheSceneOrABundleFailBeforeTheRun) {
+  const auto scene_file = scene(""), bundle = dir.path() / "two.h5";
+  const std::string scene_text = read_text(scene_file), bundle_bytes = read_text(bundle);
+  auto result = player("run " + quoted(scene_file) + " --no-render --steps 5 --report " + quoted(scene_file));
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("--report " + scene_file.string() + ": is the input"), std::string::npos) << result.output;
+  result = player("run " + quoted(scene_file) + " --no-render --steps 5 --trajectory " + quoted(bundle));
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("--trajectory " + bundle.string() + ": is the input"), std::string::npos) << result.output;
+  result = player("run " + quoted(scene_file) + " --no-render --steps 5 --report " + quoted(dir.path()));
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("is a directory"), std::string::npos) << result.output;
+  EXPECT_EQ(read_text(scene_file), scene_text);
+  EXPECT_EQ(read_text(bundle), bundle_bytes);
+}
+
+TEST_F(PlayerCli, AFullDiskIsExitOneWithNothingLeftBehind) {
+  const auto out = dir.path() / "out";
+  std::filesystem::create_directory(out);
+  const auto result = testing::run_command("ulimit -f 8; exec " + std::string(FISSURE_PLAYER_EXE) + " -q run " +
+                                           quoted(scene("")) + " --no-render --steps 200 --trajectory " +
+                                           quoted(out / "t.h5"));
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("t.h5: cannot write: the file exceeds the size limit"), std::string::npos)
+      << result.output;
+  EXPECT_TRUE(std::filesystem::is_empty(out));
+}
+
 TEST_F(PlayerCli, BadRunOptionsAreErrors) {
   const auto result = player("run " + quoted(scene("")) + " --no-render --steps -3");
   EXPECT_EQ(result.exit_code, 1);

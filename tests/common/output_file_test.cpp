@@ -1,0 +1,109 @@
+// Output files: atomic writes, checks before the work, and nothing left behind on a
+// full disk or a signal. The failing cases run in a forked child, whose limits and
+// signal handlers must not touch the test process.
+#include "common/output_file.h"
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <functional>
+
+#include "common/error.h"
+#include "tests/support/temp_dir.h"
+
+namespace fissure {
+namespace {
+
+/// Runs `body` in a child process; returns its wait status.
+int in_child(const std::function<int()>& body) {
+  const pid_t pid = ::fork();
+  if (pid == 0) ::_exit(body());
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return status;
+}
+
+std::size_t files_in(const std::filesystem::path& folder) {
+  std::size_t count = 0;
+  for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(folder)) ++count;
+  return count;
+}
+
+TEST(OutputFile, WritesTheBytesAndLeavesNoTemporary) {
+  testing::TempDir dir;
+  write_file_atomically(dir / "a.txt", "hello");
+  write_file_atomically(dir / "a.txt", "replaced");
+  std::ifstream in(dir / "a.txt");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), "replaced");
+  EXPECT_EQ(files_in(dir.path()), 1U);
+}
+
+TEST(OutputFile, AFullDiskIsACleanErrorThatLeavesNothing) {
+  testing::TempDir dir;
+  // A file-size limit fails writes with EFBIG, as ENOSPC would on a full disk.
+  const int status = in_child([&] {
+    install_output_signal_handlers();
+    const rlimit limit{4096, 4096};
+    ::setrlimit(RLIMIT_FSIZE, &limit);
+    try {
+      write_file_atomically(dir / "big.bin", std::string(100000, 'x'));
+    } catch (const Error& e) {
+      const std::string message = e.what();
+      return message.find("big.bin") != std::string::npos && message.find("size limit") != std::string::npos ? 0 : 3;
+    }
+    return 4;
+  });
+  ASSERT_TRUE(WIFEXITED(status)) << "the child died of signal " << WTERMSIG(status);
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_EQ(files_in(dir.path()), 0U);
+}
+
+TEST(OutputFile, SigtermRemovesTheTemporaryBeingWrittenAndStillEndsTheProcess) {
+  testing::TempDir dir;
+  const int status = in_child([&] {
+    install_output_signal_handlers();
+    const TemporaryOutput temporary(dir / "out.h5");
+    std::ofstream(temporary.path()) << "half";
+    ::raise(SIGTERM);
+    return 0;
+  });
+  ASSERT_TRUE(WIFSIGNALED(status));
+  EXPECT_EQ(WTERMSIG(status), SIGTERM);
+  EXPECT_EQ(files_in(dir.path()), 0U);
+}
+
+TEST(OutputFile, ChecksRefuseDirectoriesMissingFoldersAndInputs) {
+  testing::TempDir dir;
+  const auto input = dir.write("mesh.obj", "v 0 0 0\n");
+  const auto expect_refused = [&](const std::filesystem::path& path, const std::string& part) {
+    try {
+      check_output_path(path, {input}, "-o");
+      ADD_FAILURE() << path << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("-o "), std::string::npos) << e.what();
+    }
+  };
+  expect_refused(dir.path(), "is a directory");
+  expect_refused(dir / "no" / "out.h5", "does not exist");
+  expect_refused(input, "is the input");
+  expect_refused(dir / "." / "mesh.obj", "is the input");  // the same file by another name
+  EXPECT_NO_THROW(check_output_path(dir / "out.h5", {input}, "-o"));
+}
+
+TEST(OutputFile, ChecksRemoveOnlyTemporariesWhoseRunIsGone) {
+  testing::TempDir dir;
+  const auto stale = dir.write("out.h5.tmp-999999999", "left by a killed run");
+  const auto live = dir.write("out.h5.tmp-" + std::to_string(::getppid()), "another run, still writing");
+  const auto other = dir.write("other.h5.tmp-999999999", "not ours");
+  check_output_path(dir / "out.h5", {}, "-o");
+  EXPECT_FALSE(std::filesystem::exists(stale));
+  EXPECT_TRUE(std::filesystem::exists(live));
+  EXPECT_TRUE(std::filesystem::exists(other));
+}
+
+}  // namespace
+}  // namespace fissure
