@@ -4,11 +4,14 @@
 #include <assimp/scene.h>
 
 #include <assimp/Importer.hpp>
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <vector>
 
 #include "common/error.h"
 #include "common/log.h"
+#include "formats/ply.h"
 
 namespace fissure::bake {
 namespace {
@@ -37,6 +40,17 @@ void weld_positions(SurfaceMesh& mesh) {
   }
 }
 
+ImportedMesh import_ply(const std::filesystem::path& path, const MeshImportOptions& options) {
+  formats::PlyMesh ply = formats::read_ply(path);
+  if (ply.mesh.triangle_count() == 0) {
+    throw Error(path.string() + ": the file holds no triangles", "export the surface as a triangle or polygon mesh");
+  }
+  ImportedMesh result{std::move(ply.mesh), 1, ply.skipped_faces};
+  if (result.mesh.normals.cols() == 0) log_debug(path.string() + ": no normals; the player will compute them");
+  if (options.weld) weld_positions(result.mesh);
+  return result;
+}
+
 }  // namespace
 
 ImportedMesh import_render_mesh(const std::filesystem::path& path, const MeshImportOptions& options) {
@@ -45,6 +59,9 @@ ImportedMesh import_render_mesh(const std::filesystem::path& path, const MeshImp
   if (!std::filesystem::exists(path, ec)) throw Error(name + ": file not found");
   if (std::filesystem::is_directory(path, ec)) throw Error(name + ": is a directory, not a mesh file");
   if (std::filesystem::file_size(path, ec) == 0) throw Error(name + ": the file is empty");
+  std::string extension = path.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (extension == ".ply") return import_ply(path, options);  // not through assimp: see formats/ply.h
 
   Assimp::Importer importer;
   if (!importer.IsExtensionSupported(path.extension().string())) {
@@ -55,7 +72,8 @@ ImportedMesh import_render_mesh(const std::filesystem::path& path, const MeshImp
   // The scene graph is walked here rather than flattened by aiProcess_PreTransformVertices,
   // which would also merge meshes by material and hide how many the file held.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene = importer.ReadFile(name, 0);
+  // Validation first: assimp's post-processing steps trust the structure they get.
+  const aiScene* scene = importer.ReadFile(name, aiProcess_ValidateDataStructure);
   if (scene == nullptr) {
     throw Error(name + ": cannot read the mesh: " + std::string(importer.GetErrorString()),
                 "check that the file is complete and in the format its extension says");

@@ -1,6 +1,7 @@
 #pragma once
-/// Render-mesh import through assimp (OBJ, PLY, STL, glTF/GLB, FBX and the rest of
-/// assimp's formats). The only place in Fissure that includes assimp.
+/// Render-mesh import: PLY through Fissure's own reader (formats/ply.h), every other
+/// format through assimp (OBJ, STL, glTF/GLB, FBX …). The only place in Fissure that
+/// includes assimp.
 
 #include <filesystem>
 #include <string>

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <system_error>
 #include <numeric>
 
@@ -205,8 +206,10 @@ void require_backed_by_file(hid_t dataset, const std::string& name, const std::v
   if (claimed > backed) {
     std::string dims;
     for (const hsize_t extent : shape) dims += (dims.empty() ? "" : ",") + std::to_string(extent);
-    throw Error("HDF5: dataset " + name + " claims shape [" + dims + "] (" + std::to_string(static_cast<double>(claimed)) +
-                    " bytes) but the file holds only " + std::to_string(stored) + " bytes of it",
+    char bytes[32];
+    std::snprintf(bytes, sizeof bytes, "%.3g", static_cast<double>(claimed));
+    throw Error("HDF5: dataset " + name + " claims shape [" + dims + "] (" + bytes + " bytes) but the file holds only " +
+                    std::to_string(stored) + " bytes of it",
                 "the file is corrupt or truncated; re-create it");
   }
 }

@@ -101,6 +101,29 @@ TEST(BakeCli, AFullDiskIsExitOneWithNothingLeftBehind) {
   EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
 }
 
+// Inputs that crashed, hung or exhausted memory before issue 17 (tests/data/hostile/README.md).
+TEST(BakeCli, HostileInputsFoundByFuzzingAreCleanErrors) {
+  testing::TempDir dir;
+  const auto hostile = std::filesystem::path(FISSURE_TEST_FILES_DIR) / "hostile";
+  const auto cage = testing::data_dir() / "cages" / "bunny-5k-cage-10.node";
+  for (const auto& entry : std::filesystem::directory_iterator(hostile)) {
+    const auto& file = entry.path();
+    if (file.extension() != ".ply") continue;
+    const Result r = run("-q bake --mesh " + quoted(file) + " --cage " + quoted(cage) + " -o " + quoted(dir / "b.h5"));
+    const bool valid = file.filename().string().find("valid") != std::string::npos;
+    EXPECT_EQ(r.exit_code, valid ? 0 : 1) << file << "\n" << r.output;
+    if (!valid) {
+      EXPECT_NE(r.output.find("error: " + file.string()), std::string::npos) << r.output;
+    }
+  }
+  const auto bundle = hostile / "bundle-1.1-dimension-bad-alloc.h5";
+  for (const char* command : {"inspect ", "verify "}) {
+    const Result r = run(command + quoted(bundle));
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_NE(r.output.find("claims shape [274877907401]"), std::string::npos) << r.output;
+  }
+}
+
 TEST(BakeCli, StageOptionsChooseTheGroupsWritten) {
   testing::TempDir dir;
   const std::string inputs = " --mesh " + quoted(kMesh) + " --cage " + quoted(kCage);
