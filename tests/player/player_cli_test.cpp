@@ -207,6 +207,25 @@ TEST_F(PlayerCli, AFullDiskIsExitOneWithNothingLeftBehind) {
   EXPECT_TRUE(std::filesystem::is_empty(out));
 }
 
+TEST_F(PlayerCli, ABundleThatFailsVerifyIsRefusedNamingTheSceneKeyAndTheFile) {
+  formats::Bundle broken = testing::two_tet_bundle();
+  broken.embedding.instance_barycentric[0](0, 0) += 0.5;  // no longer sums to one
+  formats::write_bundle(dir.path() / "two.h5", broken);
+  auto result = player("run " + quoted(scene("")) + " --no-render --steps 1");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("scene.toml:6: object[0] 'two'.bundle " + (dir.path() / "two.h5").string() +
+                               " fails its checks"),
+            std::string::npos)
+      << result.output;
+  EXPECT_NE(result.output.find("barycentric-sums"), std::string::npos) << result.output;
+  EXPECT_NE(result.output.find("fissure-bake verify"), std::string::npos) << result.output;
+  // A transform the cage cannot survive names the object too.
+  formats::write_bundle(dir.path() / "two.h5", testing::two_tet_bundle());
+  result = player("run " + quoted(scene("scale = 1e300")) + " --no-render --steps 1");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("object[0] 'two': after the scale, tet 0 has volume inf"), std::string::npos) << result.output;
+}
+
 TEST_F(PlayerCli, BadRunOptionsAreErrors) {
   const auto result = player("run " + quoted(scene("")) + " --no-render --steps -3");
   EXPECT_EQ(result.exit_code, 1);
