@@ -77,6 +77,36 @@ void require_coverage(const SurfaceMesh& mesh, const TetMesh& cage, const format
               "sure its tets do not overlap");
 }
 
+/// Every vertex of a triangle lies within the cage's bounding box, or the cage cannot
+/// cover the mesh. Checked before the embedding: a vertex far outside (1e15, say) would
+/// otherwise reach the exact predicates and fail deep in the bake.
+void require_inside_cage_bounds(const SurfaceMesh& mesh, const TetMesh& cage, const std::string& mesh_name,
+                                const std::string& cage_name) {
+  if (cage.node_count() == 0) throw Error(cage_name + ": the cage has no nodes");
+  const Vec3 lo = cage.rest_positions.rowwise().minCoeff(), hi = cage.rest_positions.rowwise().maxCoeff();
+  std::vector<std::uint8_t> outside(mesh.vertex_count(), 0);
+  for (Eigen::Index i = 0; i < mesh.triangles.size(); ++i) {
+    const Index v = mesh.triangles.data()[i];
+    const auto p = mesh.positions.col(v).array();
+    outside[v] = (p < lo.array()).any() || (p > hi.array()).any();
+  }
+  const auto first = std::find(outside.begin(), outside.end(), 1);
+  if (first == outside.end()) return;
+  Vec3 box_lo = Vec3::Constant(std::numeric_limits<double>::infinity()), box_hi = -box_lo;
+  for (Index v = 0; v < mesh.vertex_count(); ++v) {
+    if (!outside[v]) continue;
+    box_lo = box_lo.cwiseMin(mesh.positions.col(v));
+    box_hi = box_hi.cwiseMax(mesh.positions.col(v));
+  }
+  const auto v = static_cast<Index>(first - outside.begin());
+  throw Error(cage_name + " does not cover " + mesh_name + ": " +
+                  std::to_string(std::count(outside.begin(), outside.end(), 1)) +
+                  " vertices lie outside the cage's bounding box " + format_point(lo) + " – " + format_point(hi) +
+                  ", within the box " + format_point(box_lo) + " – " + format_point(box_hi) + "; first: vertex " +
+                  std::to_string(v) + " at " + format_point(mesh.positions.col(v)),
+              "enlarge the cage so it encloses the whole mesh (check both are in the same units and frame)");
+}
+
 }  // namespace
 
 std::string generator_string() { return std::string(kGeneratorName) + " " + FISSURE_VERSION; }
@@ -131,6 +161,7 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
                 std::to_string(topology.nonmanifold_edges) +
                 " non-manifold edges); inside/outside comes from generalized winding numbers");
   }
+  require_inside_cage_bounds(mesh, cage, mesh_name, cage_name);
   bundle.faces = build_cage_faces(cage, cage_name);
   s.faces_s = seconds_since(start);
   log_stage("topology", std::to_string(topology.edges) + " surface edges, " + std::to_string(bundle.faces.face_count()) +

@@ -124,6 +124,19 @@ TEST(BakeCli, HostileInputsFoundByFuzzingAreCleanErrors) {
   }
 }
 
+TEST(BakeCli, AVertexFarOutsideTheCageIsAnErrorNamingIt) {
+  testing::TempDir dir;
+  // A small closed tetrahedron in the middle of the bunny's cage, one corner moved to 1e15
+  // (which used to fail the bake's own final check, exit 2).
+  const auto mesh = dir.write("far.obj", "v -0.02 0.1 0\nv 0.02 0.1 0\nv 0 0.14 0\nv 0 0.1 1e15\n"
+                                         "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n");
+  const Result r = run("bake --mesh " + quoted(mesh) + " --cage " + quoted(kCage) + " -o " + quoted(dir / "b.h5"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("does not cover " + mesh.string() + ": 1 vertices lie outside"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("first: vertex 3 at (0, 0.1, 1e+15)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("hint: enlarge the cage"), std::string::npos) << r.output;
+}
+
 TEST(BakeCli, StageOptionsChooseTheGroupsWritten) {
   testing::TempDir dir;
   const std::string inputs = " --mesh " + quoted(kMesh) + " --cage " + quoted(kCage);

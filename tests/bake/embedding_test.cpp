@@ -216,12 +216,31 @@ TEST(Embedding, ContoursHaveTheSolidOnTheirLeft) {
 }
 
 TEST(Embedding, CageThatMissesPartOfTheMeshIsAnErrorSayingWhere) {
+  // Inside the cage's bounding box but outside its tets: the coverage check finds it.
+  const SurfaceMesh concave = testing::icosphere(3, 1.0);
+  TetMesh cage_with_a_hole = testing::grid_cage(Vec3(-1.2, -1.2, -1.2), Vec3(1.2, 1.2, 1.2), 4, 4, 4);
+  {  // drop the tets of the cell x ∈ [0.6, 1.2], y, z ∈ [0, 0.6], which the sphere passes through
+    Matrix4Xu kept(4, 0);
+    for (Eigen::Index t = 0; t < cage_with_a_hole.tets.cols(); ++t) {
+      Vec3 centroid = Vec3::Zero();
+      for (int k = 0; k < 4; ++k) centroid += cage_with_a_hole.rest_positions.col(cage_with_a_hole.tets(k, t)) / 4.0;
+      if (centroid.x() > 0.6 && centroid.y() > 0 && centroid.y() < 0.6 && centroid.z() > 0 && centroid.z() < 0.6) continue;
+      kept.conservativeResize(4, kept.cols() + 1);
+      kept.col(kept.cols() - 1) = cage_with_a_hole.tets.col(t);
+    }
+    ASSERT_LT(kept.cols(), cage_with_a_hole.tets.cols());
+    cage_with_a_hole.tets = kept;
+  }
+  testing::expect_error_containing([&] { embed(concave, cage_with_a_hole, BakeOptions{}, "sphere.obj", "holed.node"); },
+                                   {"holed.node does not cover sphere.obj", "triangles lie partly or wholly outside",
+                                    "area", "within the box (", "enlarge the cage"});
+  // Outside the bounding box: found before the embedding, naming the first vertex.
   const SurfaceMesh sphere = testing::icosphere(3, 1.0);
   // The grid stops at x = 0.8: the cap beyond it is outside.
   const TetMesh cage = testing::grid_cage(Vec3(-1.2, -1.2, -1.2), Vec3(0.8, 1.2, 1.2), 4, 4, 4);
   testing::expect_error_containing([&] { embed(sphere, cage, BakeOptions{}, "sphere.obj", "small.node"); },
-                                   {"small.node does not cover sphere.obj", "triangles lie partly or wholly outside",
-                                    "area", "within the box (", "enlarge the cage"});
+                                   {"small.node does not cover sphere.obj", "vertices lie outside the cage's bounding box",
+                                    "within the box (", "first: vertex", "enlarge the cage"});
 }
 
 TEST(Embedding, DeterministicWhateverTheThreadCount) {
