@@ -91,7 +91,7 @@ int main(int argc, char** argv) {
   fissure::bake::BakeOptions options;
   std::string mesh, cage, output;
   auto* bake_cmd = app.add_subcommand("bake", "Embed --mesh in --cage and write the bundle to -o");
-  bake_cmd->add_option("--mesh", mesh, "Render mesh (OBJ, PLY, STL, glTF/GLB, FBX, … via assimp)")->required();
+  bake_cmd->add_option("--mesh", mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")->required();
   bake_cmd->add_option("--cage", cage, "Tetrahedral cage: .node/.ele (TetGen), .msh (Gmsh 2.2/4.1), .mesh (MEDIT)")
       ->required();
   bake_cmd->add_option("-o,--output", output, "Bundle to write (.h5); written atomically")->required();

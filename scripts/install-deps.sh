@@ -5,6 +5,7 @@
 # llvmpipe) are the headless renderers; ffmpeg encodes `run --video`; GLFW and Dear
 # ImGui (libimgui-dev) make `view`'s window and panel, and Xvfb lets its tests open a
 # window without a display.
+# time (GNU time): scripts/fuzz-cli.py measures each run's peak memory with it.
 # libopenblas0-serial: CHOLMOD's dense kernels; serial so that it neither fights TBB's
 # threads nor changes results with the thread count (the reference BLAS is 3× slower).
 set -euo pipefail
@@ -16,7 +17,7 @@ packages=(
   libcli11-dev libtbb-dev libtomlplusplus-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libglfw3-dev libimgui-dev xvfb xauth libosmesa6-dev libgl-dev libegl-dev libegl-mesa0 libgl1-mesa-dri python3-glad
-  ffmpeg
+  ffmpeg time
   libssl-dev
   libsuitesparse-dev libopenblas0-serial
   libbullet-dev
