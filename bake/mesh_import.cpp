@@ -72,8 +72,10 @@ ImportedMesh import_render_mesh(const std::filesystem::path& path, const MeshImp
   // The scene graph is walked here rather than flattened by aiProcess_PreTransformVertices,
   // which would also merge meshes by material and hide how many the file held.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  // Validation first: assimp's post-processing steps trust the structure they get.
-  const aiScene* scene = importer.ReadFile(name, aiProcess_ValidateDataStructure);
+  // No aiProcess_ValidateDataStructure: it refuses OBJ faces of one or two vertices
+  // that SortByPType below drops as points and lines (a common exporter habit). The
+  // crashes it might have caught were all in the PLY reader, which assimp no longer sees.
+  const aiScene* scene = importer.ReadFile(name, 0);
   if (scene == nullptr) {
     throw Error(name + ": cannot read the mesh: " + std::string(importer.GetErrorString()),
                 "check that the file is complete and in the format its extension says");

@@ -137,6 +137,15 @@ TEST(BakeCli, AVertexFarOutsideTheCageIsAnErrorNamingIt) {
   EXPECT_NE(r.output.find("hint: enlarge the cage"), std::string::npos) << r.output;
 }
 
+TEST(BakeCli, AnObjWithTwoVertexFacesStillBakesWithoutThem) {
+  testing::TempDir dir;
+  std::ifstream in(kMesh);
+  const auto mesh = dir.write("lines.obj", std::string(std::istreambuf_iterator<char>(in), {}) + "f 1 2\nf 3\n");
+  const Result r = run("-q bake --mesh " + quoted(mesh) + " --cage " + quoted(kCage) + " -o " + quoted(dir / "b.h5"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("5000 triangles"), std::string::npos) << r.output;
+}
+
 TEST(BakeCli, StageOptionsChooseTheGroupsWritten) {
   testing::TempDir dir;
   const std::string inputs = " --mesh " + quoted(kMesh) + " --cage " + quoted(kCage);
