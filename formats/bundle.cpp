@@ -247,6 +247,7 @@ void write_bundle(const std::filesystem::path& path, const Bundle& bundle) {
 Bundle read_bundle_unchecked_context(const std::filesystem::path& path);
 
 Bundle read_bundle(const std::filesystem::path& path) {
+  h5::require_legacy_file_readable(path, [&] { (void)read_bundle_unchecked_context(path); });
   try {
     return read_bundle_unchecked_context(path);
   } catch (const Error& e) {

@@ -62,7 +62,9 @@ Counts count(const Bundle& b) {
 
 }  // namespace
 
-BundleSummary summarize_bundle(const std::filesystem::path& path) {
+namespace {
+
+BundleSummary summarize_unprobed(const std::filesystem::path& path) {
   BundleSummary s;
   s.file = path.string();
   s.bundle = read_bundle(path);
@@ -73,6 +75,14 @@ BundleSummary summarize_bundle(const std::filesystem::path& path) {
     if (h5::has_link(file.id(), stage)) s.stages.emplace_back(stage);
   }
   return s;
+}
+
+}  // namespace
+
+BundleSummary summarize_bundle(const std::filesystem::path& path) {
+  // The listing walks links that read_bundle does not: probe the whole summary.
+  h5::require_legacy_file_readable(path, [&] { (void)summarize_unprobed(path); });
+  return summarize_unprobed(path);
 }
 
 std::string summary_text(const BundleSummary& s) {
@@ -106,7 +116,7 @@ std::string summary_text(const BundleSummary& s) {
       c.crossing_faces);
   add("embedding\n  instances     %zu  (%.3f per triangle)\n", b.embedding.instance_count(),
       b.render.triangle_count() ? static_cast<double>(b.embedding.instance_count()) / static_cast<double>(b.render.triangle_count()) : 0.0);
-  add("  replication   ");
+  out += "  replication   ";
   for (std::size_t k = 1; k < c.replication.size(); ++k) add("%zu%s:%zu ", k, k == 8 ? "+" : "x", c.replication[k]);
   add("\n  contours      %zu segments\n", b.embedding.segment_count());
   if (b.walls) {
@@ -122,7 +132,7 @@ std::string summary_text(const BundleSummary& s) {
     add("collision\n  spheres       %zu (target radius %.4g)\n  solid volume  %.6g (Σ mass fraction × tet volume)\n",
         b.collision->sphere_tet.size(), b.collision->target_radius, solid);
   }
-  add("datasets\n");
+  out += "datasets\n";
   for (const DatasetSummary& d : s.datasets) {
     std::string shape;
     for (const auto extent : d.shape) {

@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
+#include <fstream>
+#include <string_view>
 #include <system_error>
 #include <numeric>
 
+#include "common/child_probe.h"
 #include "common/error.h"
 #include "common/output_file.h"
 
@@ -134,6 +137,24 @@ Handle open_file_read_only(const std::string& path) {
   Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.valid()) throw Error(path + ": cannot open the HDF5 file");
   return file;
+}
+
+bool has_checksummed_metadata(const std::filesystem::path& path) {
+  constexpr std::string_view kSignature("\x89HDF\r\n\x1a\n", 8);
+  constexpr std::size_t kVersionOffset = kSignature.size();
+  std::ifstream in(path, std::ios::binary);
+  char head[kVersionOffset + 1] = {};
+  if (!in.read(head, sizeof head)) return false;
+  return std::string_view(head, kSignature.size()) == kSignature && static_cast<unsigned char>(head[kVersionOffset]) >= 2;
+}
+
+void require_legacy_file_readable(const std::filesystem::path& path, const std::function<void()>& read_all) {
+  if (inside_child_probe() || has_checksummed_metadata(path)) return;
+  const ChildProbeOutcome outcome = run_in_child(read_all);
+  if (outcome.finished) return;
+  throw Error(path.string() + ": damaged HDF5 file: reading it " + outcome.how + " inside the HDF5 library",
+              "this file uses HDF5's legacy container, which has no checksums; a file written by this version "
+              "(re-bake the bundle, or record the run again) detects damage as a clean error");
 }
 
 Handle create_group(hid_t parent, const std::string& name) {

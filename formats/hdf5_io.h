@@ -56,6 +56,16 @@ void silence_library_errors();
 /// and a failure, a signal or a full disk leaves no file behind. Errors name the path.
 void write_file_atomically(const std::filesystem::path& path, const std::function<void(hid_t file)>& write);
 Handle open_file_read_only(const std::string& path);
+/// True when the file starts with an HDF5 superblock of version 2 or later, the
+/// container whose metadata HDF5 checksums (what Fissure writes since schema 1.1).
+/// False for the legacy container (superblock 0 or 1, no checksums), on which HDF5
+/// 1.10 can read out of bounds or crash when bytes are damaged, and for anything else.
+bool has_checksummed_metadata(const std::filesystem::path& path);
+/// For a file without checksummed metadata, runs `read_all` (which should read
+/// everything the caller will) in a child process first, and throws fissure::Error
+/// naming `path` if HDF5 crashed there. Costs one fork and one extra read, for legacy
+/// files only.
+void require_legacy_file_readable(const std::filesystem::path& path, const std::function<void()>& read_all);
 Handle create_group(hid_t parent, const std::string& name);
 Handle open_group(hid_t parent, const std::string& name);
 bool has_link(hid_t parent, const std::string& name);

@@ -222,7 +222,9 @@ void write_trajectory(const std::filesystem::path& path, const Trajectory& traje
   h5::write_file_atomically(path, [&](hid_t file) { write_contents(file, trajectory); });
 }
 
-Trajectory read_trajectory(const std::filesystem::path& path) {
+namespace {
+
+Trajectory read_trajectory_unprobed(const std::filesystem::path& path) {
   const h5::Handle file = h5::open_file_read_only(path.string());
   const Reader r(path.string(), file.id());
   if (h5::read_string_attribute(file.id(), "format").value_or("") != "fissure-trajectory") {
@@ -242,6 +244,13 @@ Trajectory read_trajectory(const std::filesystem::path& path) {
   read_bodies(r, t);
   read_splits(r, t);
   return t;
+}
+
+}  // namespace
+
+Trajectory read_trajectory(const std::filesystem::path& path) {
+  h5::require_legacy_file_readable(path, [&] { (void)read_trajectory_unprobed(path); });
+  return read_trajectory_unprobed(path);
 }
 
 }  // namespace fissure::formats

@@ -5,6 +5,7 @@
 # llvmpipe) are the headless renderers; ffmpeg encodes `run --video`; GLFW and Dear
 # ImGui (libimgui-dev) make `view`'s window and panel, and Xvfb lets its tests open a
 # window without a display.
+# clang and libclang-rt-14-dev (libFuzzer): the `fuzz` preset's targets (fuzz/).
 # time (GNU time): scripts/fuzz-cli.py measures each run's peak memory with it.
 # libopenblas0-serial: CHOLMOD's dense kernels; serial so that it neither fights TBB's
 # threads nor changes results with the thread count (the reference BLAS is 3× slower).
@@ -18,6 +19,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libglfw3-dev libimgui-dev xvfb xauth libosmesa6-dev libgl-dev libegl-dev libegl-mesa0 libgl1-mesa-dri python3-glad
   ffmpeg time
+  clang libclang-rt-14-dev
   libssl-dev
   libsuitesparse-dev libopenblas0-serial
   libbullet-dev
