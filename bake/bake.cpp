@@ -8,6 +8,8 @@
 
 #include "bake/exact_embedding.h"
 #include "bake/file_hash.h"
+#include "bake/self_intersections.h"
+#include "bake/surface_orientation.h"
 #include "bake/winding_number.h"
 #include "common/error.h"
 #include "common/json_writer.h"
@@ -136,21 +138,49 @@ std::string BakeOptions::to_json() const {
   return j.str();
 }
 
-formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOptions& options,
+/// Orients the surface consistently and counts where it crosses itself, warning about
+/// both: what the bake repairs, and what it bakes as it is.
+void repair_surface(SurfaceMesh& mesh, const std::string& mesh_name, BakeStats& s) {
+  const OrientationRepair orientation = orient_surface(mesh);
+  s.flipped_triangles = orientation.flipped();
+  if (orientation.flipped_to_agree > 0) {
+    log_warning(mesh_name + ": flipped " + std::to_string(orientation.flipped_to_agree) +
+                " triangles whose winding disagreed with their neighbours'");
+  }
+  if (orientation.inside_out_pieces > 0) {
+    log_warning(mesh_name + ": turned " + std::to_string(orientation.inside_out_pieces) + " inside-out closed pieces (" +
+                std::to_string(orientation.flipped_inside_out) + " triangles) right side out");
+  }
+  if (orientation.non_orientable > 0) {
+    log_warning(mesh_name + ": " + std::to_string(orientation.non_orientable) +
+                " pieces cannot be oriented consistently (like a Möbius strip); baked as they are");
+  }
+  s.self_intersections = count_self_intersections(mesh);
+  if (s.self_intersections > 0) {
+    log_warning(mesh_name + ": " + std::to_string(s.self_intersections) +
+                " pairs of triangles cross each other; baked as they are: where pieces overlap, the solid counts "
+                "them once (winding number ≥ ½)");
+  }
+}
+
+formats::Bundle embed(const SurfaceMesh& input_mesh, const TetMesh& cage, const BakeOptions& options,
                       const std::string& mesh_name, const std::string& cage_name, BakeStats* stats) {
   BakeStats local;
   BakeStats& s = stats ? *stats : local;
-  if (mesh.triangle_count() == 0) throw Error(mesh_name + ": the mesh has no triangles");
+  if (input_mesh.triangle_count() == 0) throw Error(mesh_name + ": the mesh has no triangles");
   // Bad stage options fail before any work.
   if (options.walls) validate(options.wall);
   if (options.collision) validate(options.spheres);
 
   formats::Bundle bundle;
-  bundle.render = mesh;
+  bundle.render = input_mesh;
   bundle.cage = cage;
   formats::Embedding& e = bundle.embedding;
+  const SurfaceMesh& mesh = bundle.render;
 
   auto start = Clock::now();
+  repair_surface(bundle.render, mesh_name, s);
+  e.surface_self_intersections = s.self_intersections;
   const SurfaceTopology topology = analyze_topology(mesh);
   s.boundary_edges = topology.boundary_edges;
   s.boundary_loops = topology.boundary_loops;

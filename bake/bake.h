@@ -43,9 +43,13 @@ struct BakeStats {
   std::size_t degenerate_triangles = 0;
   std::size_t coplanar_pairs = 0;
   std::size_t boundary_edges = 0, boundary_loops = 0, nonmanifold_edges = 0;
+  std::size_t flipped_triangles = 0;   ///< by the orientation repair (bake/surface_orientation.h)
+  std::size_t self_intersections = 0;  ///< crossing triangle pairs (bake/self_intersections.h)
 };
 
-/// Embeds `mesh` in `cage` (already validated and positively oriented).
+/// Embeds `mesh` in `cage` (already validated and positively oriented). The bundle's
+/// render mesh is `mesh` with its triangles oriented consistently (warnings say what
+/// was flipped).
 /// Throws fissure::Error if the cage does not cover the mesh; `mesh_name` and
 /// `cage_name` name the inputs in that message.
 formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOptions& options,

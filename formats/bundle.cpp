@@ -120,6 +120,9 @@ void write_contents(hid_t file, const Bundle& b) {
     h5::write_dataset(group.id(), "contour_feature", ElementType::U8, {static_cast<hsize_t>(e.segment_count()), 2},
                       e.contour_feature.data());
     write_vector(group.id(), "face_degenerate", ElementType::U8, e.face_degenerate);
+    if (e.surface_self_intersections > 0) {
+      h5::write_attribute(group.id(), "surface_self_intersections", static_cast<std::int64_t>(e.surface_self_intersections));
+    }
   }
   if (b.walls) write_walls(file, *b.walls);
   if (b.collision) write_collision(file, *b.collision);
@@ -331,6 +334,8 @@ Bundle read_bundle_unchecked_context(const std::filesystem::path& path) {
     e.contour_points.resize(segments);
     h5::read_dataset(g.id(), "contour_points", ElementType::F64, e.contour_points.data());
     e.face_degenerate = reader.read_vector<std::uint8_t>(g.id(), where, "face_degenerate", ElementType::U8, faces);
+    e.surface_self_intersections = static_cast<std::uint64_t>(
+        std::max<std::int64_t>(0, h5::read_integer_attribute(g.id(), "surface_self_intersections").value_or(0)));
     reader.expect_shape(g.id(), where, "contour_feature", {2}, segments);
     e.contour_feature.resize(segments);
     h5::read_dataset(g.id(), "contour_feature", ElementType::U8, e.contour_feature.data());
@@ -403,6 +408,7 @@ Bundle read_bundle_unchecked_context(const std::filesystem::path& path) {
     Collision c;
     c.target_radius = h5::read_double_attribute(g.id(), "target_radius").value_or(0.0);
     c.sampled_tets = static_cast<std::uint64_t>(std::max<std::int64_t>(0, h5::read_integer_attribute(g.id(), "sampled_tets").value_or(0)));
+
     c.sphere_tet = reader.read_vector<TetIndex>(g.id(), where, "sphere_tet", ElementType::U32);
     const hsize_t spheres = c.sphere_tet.size();
     reader.check_range(c.sphere_tet.data(), spheres, 1, b.cage.tet_count(), where + "/sphere_tet", false);

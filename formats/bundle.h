@@ -82,6 +82,11 @@ struct Embedding {
   /// #faces: 1 where a render triangle lies in the face's plane: the face's inside
   /// region is ambiguous there (see Walls::face_class 3).
   std::vector<std::uint8_t> face_degenerate;
+  /// Pairs of render triangles that cross each other, found by the bake (an attribute,
+  /// stored only when non-zero). Where pieces overlap, the solid and the tiles count
+  /// them once, while the signed enclosed volume and the exact face areas count them
+  /// with their winding: verify does not compare those totals.
+  std::uint64_t surface_self_intersections = 0;
 
   [[nodiscard]] std::size_t instance_count() const { return instance_triangle.size(); }
   [[nodiscard]] std::size_t segment_count() const { return contour_triangle.size(); }

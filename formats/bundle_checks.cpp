@@ -130,6 +130,7 @@ VerifyCheck check_walls(const Bundle& b) {
       ++open_faces;  // an open surface ends inside this face: no exact area to compare with
       continue;
     }
+    if (e.surface_self_intersections > 0) continue;  // overlapping regions: see Embedding
     // The tile's texel count must match the exact inside area to about one texel row
     // along the region's boundary (contour and face edges).
     const Vec3 n0 = b.cage.rest_positions.col(b.faces.nodes(0, f));
@@ -158,8 +159,12 @@ VerifyCheck check_walls(const Bundle& b) {
     }
   }
   if (check.passed) {
-    check.detail = std::to_string(crossing) + " tiles of " + std::to_string(w.resolution) +
-                   "²; worst tile-area error " + format_double(worst_ratio) + " texel rows";
+    check.detail = std::to_string(crossing) + " tiles of " + std::to_string(w.resolution) + "²; ";
+    if (e.surface_self_intersections > 0) {
+      check.detail += "tile areas not compared: the surface crosses itself";
+    } else {
+      check.detail += "worst tile-area error " + format_double(worst_ratio) + " texel rows";
+    }
     if (open_faces > 0) check.detail += " (" + std::to_string(open_faces) + " faces with open contours not compared)";
   }
   return check;
@@ -206,6 +211,10 @@ VerifyCheck check_mass(const Bundle& b) {
   if (c.sampled_tets > 0) {
     check.detail = "fractions in [0, 1] and consistent with the tet classes; " + std::to_string(c.sampled_tets) +
                    " tets beside faces the surface lies in were sampled, so the total is not compared";
+  } else if (b.embedding.surface_self_intersections > 0) {
+    check.detail = "fractions in [0, 1] and consistent with the tet classes; the surface crosses itself (" +
+                   std::to_string(b.embedding.surface_self_intersections) +
+                   " triangle pairs), so the total is not compared with its enclosed volume";
   } else if (analyze_topology(b.render).closed()) {
     const double enclosed = enclosed_volume(b.render);
     const double error = std::abs(solid - enclosed) / std::max(std::abs(enclosed), 1e-300);
