@@ -34,7 +34,9 @@ for target in "${targets[@]}"; do
   if build/fuzz/fuzz/"${target}"_fuzz "$corpus" "fuzz/corpus/$target" \
       -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
       -artifact_prefix="$findings/" >"$log" 2>&1; then
-    runs=$(grep -m1 -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
+    # The last figure is the parent's: a probe child (common/child_probe.h) that dies
+    # under a sanitizer prints its own stats first.
+    runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | tail -1 | grep -o '[0-9]*$' || echo "?")
     echo "fuzz $target: clean, $runs inputs in ${seconds}s, corpus $(ls "$corpus" | wc -l) files"
   else
     echo "fuzz $target: FAILED (log: $log)"
