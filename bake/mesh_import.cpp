@@ -51,6 +51,38 @@ ImportedMesh import_ply(const std::filesystem::path& path, const MeshImportOptio
   return result;
 }
 
+/// Assimp's post-processing trusts what its readers report: a damaged file whose
+/// faces do not match the mesh's primitive-type flags aborts in TriangulateProcess
+/// (ai_assert numOut != mNumFaces; a truncated OFF face list, found by fuzz/mesh_fuzz),
+/// and an index past the vertices reads out of bounds. So every face is checked, and
+/// the flags are recomputed from the faces, before post-processing. The scene is the
+/// importer's own, which its post-processing steps modify in place too.
+void check_faces(const aiScene& scene, const std::string& name) {
+  for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
+    aiMesh* mesh = scene.mMeshes[m];
+    unsigned types = 0;
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices == 0 || face.mIndices == nullptr) {
+        throw Error(name + ": face " + std::to_string(f) + " of mesh " + std::to_string(m) + " has no vertices",
+                    "the file is damaged or truncated; export it again");
+      }
+      for (unsigned k = 0; k < face.mNumIndices; ++k) {
+        if (face.mIndices[k] >= mesh->mNumVertices) {
+          throw Error(name + ": face " + std::to_string(f) + " of mesh " + std::to_string(m) + " refers to vertex " +
+                          std::to_string(face.mIndices[k]) + " of " + std::to_string(mesh->mNumVertices),
+                      "the file is damaged or truncated; export it again");
+        }
+      }
+      types |= face.mNumIndices == 1   ? aiPrimitiveType_POINT
+               : face.mNumIndices == 2 ? aiPrimitiveType_LINE
+               : face.mNumIndices == 3 ? aiPrimitiveType_TRIANGLE
+                                       : aiPrimitiveType_POLYGON;
+    }
+    mesh->mPrimitiveTypes = types;
+  }
+}
+
 }  // namespace
 
 ImportedMesh import_render_mesh(const std::filesystem::path& path, const MeshImportOptions& options) {
@@ -93,6 +125,7 @@ ImportedMesh import_render_mesh(const std::filesystem::path& path, const MeshImp
       }
     }
   }
+  check_faces(*scene, name);
   scene = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType);
   if (scene == nullptr) throw Error(name + ": post-processing failed: " + std::string(importer.GetErrorString()));
 

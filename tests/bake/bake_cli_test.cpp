@@ -110,7 +110,7 @@ TEST(BakeCli, HostileInputsFoundByFuzzingAreCleanErrors) {
   const auto cage = testing::data_dir() / "cages" / "bunny-5k-cage-10.node";
   for (const auto& entry : std::filesystem::directory_iterator(hostile)) {
     const auto& file = entry.path();
-    if (file.extension() != ".ply") continue;
+    if (file.extension() != ".ply" && file.extension() != ".off") continue;
     const Result r = run("-q bake --mesh " + quoted(file) + " --cage " + quoted(cage) + " -o " + quoted(dir / "b.h5"));
     const bool valid = file.filename().string().find("valid") != std::string::npos;
     EXPECT_EQ(r.exit_code, valid ? 0 : 1) << file << "\n" << r.output;
