@@ -21,59 +21,79 @@ double signed_volume(const TetMesh& mesh, TetIndex t) {
 }
 
 namespace {
-std::string element_name(std::size_t t, std::size_t first_element_number) {
-  return "tet " + std::to_string(t + first_element_number);
-}
-}  // namespace
 
-std::size_t validate_and_orient(TetMesh& mesh, const std::string& source, std::size_t first_element_number) {
-  if (mesh.node_count() == 0) throw Error(source + ": the cage has no nodes");
-  if (mesh.tet_count() == 0) throw Error(source + ": the cage has no tetrahedra");
-  if (mesh.node_count() >= kInvalidIndex || mesh.tet_count() >= kInvalidIndex) {
-    throw Error(source + ": the cage has more than 2^32-2 nodes or tets");
-  }
+std::string numbered(const char* what, std::size_t index, std::size_t first_number) {
+  return std::string(what) + " " + std::to_string(index + first_number);
+}
+
+void check_nodes(const TetMesh& mesh, const CageSource& source) {
   for (Eigen::Index n = 0; n < mesh.rest_positions.cols(); ++n) {
     if (!mesh.rest_positions.col(n).allFinite()) {
-      throw Error(source + ": node " + std::to_string(n + static_cast<Eigen::Index>(first_element_number)) +
+      throw Error(source.nodes + ": " + numbered("node", static_cast<std::size_t>(n), source.first_node_number) +
                   " has a non-finite coordinate (NaN or Inf)");
     }
   }
+}
+
+void check_corners(const TetMesh& mesh, TetIndex t, const CageSource& source) {
+  const std::string tet = source.tets + ": " + numbered("tet", t, source.first_tet_number);
+  for (int i = 0; i < 4; ++i) {
+    if (mesh.tets(i, t) >= mesh.node_count()) {
+      throw Error(tet + " references " + numbered("node", mesh.tets(i, t), source.first_node_number) + " but the cage has " +
+                      std::to_string(mesh.node_count()) + " nodes",
+                  "check the node numbering (0- or 1-based) and that the .node and .ele files belong together");
+    }
+    for (int j = 0; j < i; ++j) {
+      if (mesh.tets(i, t) == mesh.tets(j, t)) {
+        throw Error(tet + " uses " + numbered("node", mesh.tets(i, t), source.first_node_number) + " twice");
+      }
+    }
+  }
+}
+
+/// A flat tet is usually a misplaced node, so the message lists the four, in the node
+/// file's numbering and naming that file when it is another one.
+void check_volume(const TetMesh& mesh, TetIndex t, double volume, const CageSource& source) {
+  const auto& p = mesh.rest_positions;
+  double longest = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    for (int j = i + 1; j < 4; ++j) longest = std::max(longest, (p.col(mesh.tets(i, t)) - p.col(mesh.tets(j, t))).norm());
+  }
+  if (std::abs(volume) > kDegenerateRelativeVolume * longest * longest * longest) return;
+  char numbers[96];
+  std::snprintf(numbers, sizeof numbers, "volume %.3g for longest edge %.3g", volume, longest);
+  std::string nodes;
+  for (int i = 0; i < 4; ++i) nodes += (i ? ", " : "") + std::to_string(mesh.tets(i, t) + source.first_node_number);
+  const std::string where = source.nodes == source.tets ? "" : " of " + source.nodes;
+  throw Error(source.tets + ": " + numbered("tet", t, source.first_tet_number) + " is degenerate (" + numbers + "): nodes " +
+                  nodes + where + " are (nearly) coplanar",
+              "move one of those nodes, or remove or re-mesh the flat tetrahedron");
+}
+
+}  // namespace
+
+std::size_t validate_and_orient(TetMesh& mesh, const CageSource& source) {
+  if (mesh.node_count() == 0) throw Error(source.nodes + ": the cage has no nodes");
+  if (mesh.tet_count() == 0) throw Error(source.tets + ": the cage has no tetrahedra");
+  if (mesh.node_count() >= kInvalidIndex || mesh.tet_count() >= kInvalidIndex) {
+    throw Error(source.tets + ": the cage has more than 2^32-2 nodes or tets");
+  }
+  check_nodes(mesh, source);
   std::size_t flipped = 0;
   for (Index t = 0; t < mesh.tet_count(); ++t) {
-    for (int i = 0; i < 4; ++i) {
-      if (mesh.tets(i, t) >= mesh.node_count()) {
-        throw Error(source + ": " + element_name(t, first_element_number) + " references node " +
-                        std::to_string(mesh.tets(i, t) + first_element_number) + " but the cage has " +
-                        std::to_string(mesh.node_count()) + " nodes",
-                    "check the node numbering (0- or 1-based) and that the .node and .ele files belong together");
-      }
-      for (int j = 0; j < i; ++j) {
-        if (mesh.tets(i, t) == mesh.tets(j, t)) {
-          throw Error(source + ": " + element_name(t, first_element_number) + " uses node " +
-                      std::to_string(mesh.tets(i, t) + first_element_number) + " twice");
-        }
-      }
-    }
-    const auto& p = mesh.rest_positions;
-    double longest = 0.0;
-    for (int i = 0; i < 4; ++i) {
-      for (int j = i + 1; j < 4; ++j) {
-        longest = std::max(longest, (p.col(mesh.tets(i, t)) - p.col(mesh.tets(j, t))).norm());
-      }
-    }
+    check_corners(mesh, t, source);
     const double volume = signed_volume(mesh, t);
-    if (!(std::abs(volume) > kDegenerateRelativeVolume * longest * longest * longest)) {
-      char numbers[96];
-      std::snprintf(numbers, sizeof numbers, "volume %.3g for longest edge %.3g", volume, longest);
-      throw Error(source + ": " + element_name(t, first_element_number) + " is degenerate (" + numbers + ")",
-                  "remove or re-mesh the flat tetrahedron; its four nodes are (nearly) coplanar");
-    }
+    check_volume(mesh, t, volume, source);
     if (volume < 0.0) {
       std::swap(mesh.tets(2, t), mesh.tets(3, t));
       ++flipped;
     }
   }
   return flipped;
+}
+
+std::size_t validate_and_orient(TetMesh& mesh, const std::string& source, std::size_t first_number) {
+  return validate_and_orient(mesh, CageSource{source, source, first_number, first_number});
 }
 
 double face_area(const TetMesh& mesh, const CageFaces& faces, FaceIndex f) {

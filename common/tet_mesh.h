@@ -39,12 +39,24 @@ double signed_volume(const TetMesh& mesh, TetIndex t);
 /// with L its longest edge. A regular tet has V/L³ ≈ 0.118.
 inline constexpr double kDegenerateRelativeVolume = 1e-10;
 
+/// Where a cage came from, so that messages point at the line a user must edit: TetGen
+/// keeps nodes and tets in two files, each numbered from 0 or 1 on its own.
+struct CageSource {
+  std::string tets;   ///< file the tets were read from
+  std::string nodes;  ///< file the nodes were read from (the same file for one-file formats)
+  std::size_t first_tet_number = 0;
+  std::size_t first_node_number = 0;
+};
+
 /// Checks a freshly read cage and orients every tet positively.
-/// Throws fissure::Error naming `source` and the element (numbered as in the file,
-/// `first_element_number` being the number of tet 0) for: no nodes or tets,
-/// non-finite coordinates, out-of-range or repeated node indices, degenerate tets.
+/// Throws fissure::Error naming the file and the element, numbered as in the file, for:
+/// no nodes or tets, non-finite coordinates, out-of-range or repeated node indices,
+/// degenerate tets (with their four nodes, which is where the fix usually is).
 /// Returns the number of tets that were flipped.
-std::size_t validate_and_orient(TetMesh& mesh, const std::string& source, std::size_t first_element_number = 0);
+std::size_t validate_and_orient(TetMesh& mesh, const CageSource& source);
+
+/// The same for a cage from one file whose tets and nodes share one numbering.
+std::size_t validate_and_orient(TetMesh& mesh, const std::string& source, std::size_t first_number = 0);
 
 /// Unique triangular faces of a cage and their adjacency.
 struct CageFaces {

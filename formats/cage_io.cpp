@@ -19,10 +19,10 @@ std::string lowercase_extension(const std::filesystem::path& path) {
   return ext;
 }
 
-void finish(CageFile& cage, const std::string& source, std::size_t first_element_number) {
-  cage.flipped_tets = validate_and_orient(cage.mesh, source, first_element_number);
+void finish(CageFile& cage, const CageSource& source) {
+  cage.flipped_tets = validate_and_orient(cage.mesh, source);
   if (cage.flipped_tets > 0) {
-    log_warning(source + ": re-oriented " + std::to_string(cage.flipped_tets) + " of " +
+    log_warning(source.tets + ": re-oriented " + std::to_string(cage.flipped_tets) + " of " +
                 std::to_string(cage.mesh.tet_count()) + " tets to positive volume");
   }
 }
@@ -217,7 +217,8 @@ CageFile read_tetgen(const std::filesystem::path& node_path, const std::filesyst
     for (std::size_t k = 0; k < tet_attributes; ++k) elements.next_double("a tet attribute");
   }
   store_tets(cage.mesh, corners);
-  finish(cage, ele_path.string(), static_cast<std::size_t>(std::max<std::int64_t>(first_tet_number, 0)));
+  finish(cage, CageSource{ele_path.string(), node_path.string(), static_cast<std::size_t>(std::max<std::int64_t>(first_tet_number, 0)),
+                          static_cast<std::size_t>(base)});
   return cage;
 }
 
@@ -260,7 +261,7 @@ CageFile read_gmsh(const std::filesystem::path& path) {
     } else if (!section.empty() && section[0] == '$') {
       skip_section(tokens, section);
     } else {
-      throw Error(tokens.where() + ": expected a $Section, found '" + section + "'");
+      throw Error(tokens.where() + ": expected a $Section, found " + quote_from_file(section));
     }
   }
   if (!have_nodes) throw Error(path.string() + ": no $Nodes section");
@@ -270,7 +271,7 @@ CageFile read_gmsh(const std::filesystem::path& path) {
   }
   store_nodes(cage.mesh, xyz);
   store_tets(cage.mesh, corners);
-  finish(cage, path.string(), 0);
+  finish(cage, CageSource{path.string(), path.string(), 0, 0});
   return cage;
 }
 
@@ -331,7 +332,7 @@ CageFile read_medit(const std::filesystem::path& path) {
           tokens.next_record_count("the " + keyword + " count", static_cast<std::size_t>(it->second));
       for (std::size_t i = 0; i < count * static_cast<std::size_t>(it->second); ++i) tokens.next("a " + keyword + " value");
     } else {
-      throw Error(tokens.where() + ": unknown MEDIT keyword '" + keyword + "'",
+      throw Error(tokens.where() + ": unknown MEDIT keyword " + quote_from_file(keyword),
                   "supported: Vertices, Tetrahedra and the common surface keywords (skipped)");
     }
   }
@@ -339,7 +340,7 @@ CageFile read_medit(const std::filesystem::path& path) {
   if (corners.empty()) throw Error(path.string() + ": no Tetrahedra section", "the file holds no volume mesh");
   store_nodes(cage.mesh, xyz);
   store_tets(cage.mesh, corners);
-  finish(cage, path.string(), 1);
+  finish(cage, CageSource{path.string(), path.string(), 1, 1});
   return cage;
 }
 

@@ -135,7 +135,7 @@ class HeaderParser {
         if (header.elements.empty()) throw Error(where + ": a property before any element", kHint);
         header.elements.back().properties.push_back(parse_property(w, where));
       } else {
-        throw Error(where + ": unknown header line '" + std::string(w[0]) + "'",
+        throw Error(where + ": unknown header line " + quote_from_file(w[0]),
                     "a PLY header holds format, element, property, comment and obj_info lines");
       }
       header.body_line = line + 1;
@@ -151,7 +151,7 @@ class HeaderParser {
     if (w[1] == "ascii") return Encoding::Ascii;
     if (w[1] == "binary_little_endian") return Encoding::LittleEndian;
     if (w[1] == "binary_big_endian") return Encoding::BigEndian;
-    throw Error(where + ": unknown encoding '" + std::string(w[1]) + "'",
+    throw Error(where + ": unknown encoding " + quote_from_file(w[1]),
                 "PLY encodings are ascii, binary_little_endian and binary_big_endian");
   }
 
@@ -166,7 +166,7 @@ class HeaderParser {
 
   static Property parse_property(const std::vector<std::string_view>& w, const std::string& where) {
     const auto bad_type = [&](std::string_view type) {
-      return Error(where + ": unknown property type '" + std::string(type) + "'",
+      return Error(where + ": unknown property type " + quote_from_file(type),
                    "PLY types are char, uchar, short, ushort, int, uint, float, double (or int8 … float64)");
     };
     if (w.size() == 3) {
@@ -234,10 +234,10 @@ class BodyReader {
     double value = 0.0;
     const auto result = std::from_chars(first, last, value);
     if (result.ec != std::errc() || result.ptr != last) {
-      throw Error(location() + ": '" + std::string(first, last) + "' is not a number (" + what + ")", kHint);
+      throw Error(location() + ": " + quote_from_file({first, static_cast<std::size_t>(last - first)}) + " is not a number (" + what + ")", kHint);
     }
     if (type != Scalar::Float32 && type != Scalar::Float64 && value != std::floor(value)) {
-      throw Error(location() + ": " + what + " is " + std::string(first, last) + ", not an integer", kHint);
+      throw Error(location() + ": " + what + " is " + quote_from_file({first, static_cast<std::size_t>(last - first)}) + ", not an integer", kHint);
     }
     m_offset = end;
     return value;

@@ -50,9 +50,16 @@ std::string describe_type(const toml::node& node) {
   return "nothing";
 }
 
+/// A TOML string (valid UTF-8, toml++ checks) as it is, unless it holds control
+/// characters ("\u0000" is legal TOML), which would cut or garble the message.
+std::string show_string(const std::string& text) {
+  const bool plain = std::none_of(text.begin(), text.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; });
+  return plain ? "\"" + text + "\"" : quote_from_file(text, 80, '"');
+}
+
 /// The value as a TOML reader would recognise it in a message.
 std::string show(const toml::node& node) {
-  if (const auto* s = node.as_string()) return "\"" + s->get() + "\"";
+  if (const auto* s = node.as_string()) return show_string(s->get());
   if (const auto* i = node.as_integer()) return std::to_string(i->get());
   if (const auto* f = node.as_floating_point()) return format_number(f->get());
   if (const auto* b = node.as_boolean()) return b->get() ? "true" : "false";
@@ -259,6 +266,15 @@ class Table {
     return true;
   }
 
+  /// Reads a vector `key` if present and bounds its length by `max_norm`.
+  bool read_vec3(std::string_view key, Vec3& out, double max_norm, std::string_view allowed) const {
+    if (!read_vec3(key, out)) return false;
+    if (!(out.norm() <= max_norm)) {
+      fail(line_of(*find(key)), key_path(key) + " = " + format_vec3(out) + " is out of range", "allowed: " + std::string(allowed));
+    }
+    return true;
+  }
+
   Vec3 require_vec3(std::string_view key, std::string_view example) const {
     Vec3 v = Vec3::Zero();
     if (!read_vec3(key, v)) fail_missing(key, example);
@@ -313,6 +329,18 @@ constexpr auto kPositive = [](double v) { return v > 0; };
 constexpr auto kNonNegative = [](double v) { return v >= 0; };
 constexpr auto kUnit = [](double v) { return v >= 0 && v <= 1; };
 
+// Magnitudes beyond which a scene leaves the range issue 16's extremes grid covers and
+// heads for energies that overflow a double (½mv², m·g·h at 1e300): rejected here, where
+// the message can name the key, rather than steps later as "the energy became
+// non-finite" with no key to change.
+constexpr double kMaxGravity = 1e4;          // [m/s²], about 1,000 g
+constexpr double kMaxSpeed = 1e4;            // [m/s], ten times a rifle bullet
+constexpr double kMaxAngularSpeed = 1e4;     // [rad/s]
+constexpr double kMaxDistance = 1e6;         // [m] from the origin: 1e-10 m resolution left in a double
+constexpr double kMaxYoungsModulus = 1e13;   // [Pa], ten times diamond
+const std::string kSpeedRange = "a speed of at most 1e4 m/s";
+const std::string kPositionRange = "at most 1e6 m from the origin";
+
 void read_contact(const Table& t, double& restitution, double& friction) {
   t.read_number("restitution", restitution, kUnit, "0 <= restitution <= 1");
   t.read_number("friction", friction, kNonNegative, "friction >= 0 (Coulomb coefficient)");
@@ -366,7 +394,7 @@ void read_features(const Table& t, SceneFeatures& f) {
 
 void read_environment(const Table& t, Scene& scene) {
   t.allow_only({"gravity", "ground", "box", "sphere"});
-  t.read_vec3("gravity", scene.gravity);
+  t.read_vec3("gravity", scene.gravity, kMaxGravity, "a magnitude of at most 1e4 m/s^2 (about 1,000 g)");
   if (const auto ground = t.sub_table("ground", "[environment.ground]")) {
     ground->allow_only({"normal", "offset", "restitution", "friction"});
     SceneGround& g = scene.ground;
@@ -378,7 +406,7 @@ void read_environment(const Table& t, Scene& scene) {
       }
       g.normal.normalize();
     }
-    ground->read_number("offset", g.offset, [](double) { return true; }, "any finite number [m]");
+    ground->read_number("offset", g.offset, [](double v) { return std::abs(v) <= kMaxDistance; }, "|offset| <= 1e6 [m]");
     read_contact(*ground, g.restitution, g.friction);
   }
   for (const Table& b : t.table_array("box", "[environment.box]")) {
@@ -400,7 +428,8 @@ void read_material(const Table& t, SceneMaterial& m) {
   t.allow_only({"density", "youngs_modulus", "poisson_ratio", "toughness", "rayleigh_mass", "rayleigh_stiffness",
                 "restitution", "friction"});
   t.read_number("density", m.density, kPositive, "density > 0 [kg/m^3]");
-  t.read_number("youngs_modulus", m.youngs_modulus, kPositive, "youngs_modulus > 0 [Pa]");
+  t.read_number("youngs_modulus", m.youngs_modulus, [](double v) { return v > 0 && v <= kMaxYoungsModulus; },
+                "0 < youngs_modulus <= 1e13 [Pa]");
   t.read_number("poisson_ratio", m.poisson_ratio, [](double v) { return v >= 0 && v < 0.5; }, "0 <= poisson_ratio < 0.5");
   if (const toml::node* node = t.find("toughness")) {
     // The one value that may be infinite: "inf" (or TOML's inf) means never fractures.
@@ -472,7 +501,7 @@ void read_object(const Table& t, const std::filesystem::path& folder, SceneObjec
   const std::filesystem::path path(*bundle);
   object.bundle = path.is_absolute() ? path : (folder / path).lexically_normal();
   object.name = t.read_string("name").value_or(path.stem().string());
-  t.read_vec3("translation", object.translation);
+  t.read_vec3("translation", object.translation, kMaxDistance, kPositionRange);
   if (const auto rotation = t.sub_table("rotation", "object.rotation")) {
     rotation->allow_only({"axis", "degrees"});
     rotation->read_number("degrees", object.rotation_degrees, [](double) { return true; }, "any finite angle [degrees]");
@@ -489,8 +518,8 @@ void read_object(const Table& t, const std::filesystem::path& folder, SceneObjec
     }
   }
   t.read_number("scale", object.scale, kPositive, "scale > 0 (uniform)");
-  t.read_vec3("velocity", object.velocity);
-  t.read_vec3("angular_velocity", object.angular_velocity);
+  t.read_vec3("velocity", object.velocity, kMaxSpeed, kSpeedRange);
+  t.read_vec3("angular_velocity", object.angular_velocity, kMaxAngularSpeed, "at most 1e4 rad/s");
   if (const auto material = t.sub_table("material", "[object.material]")) read_material(*material, object.material);
   for (const Table& pin : t.table_array("pin", "[object.pin]")) read_pin(pin, object);
   read_color(t, "color", object.color);
@@ -521,8 +550,8 @@ void read_projectile(const Table& t, SceneProjectile& p) {
   p.line = t.line();
   p.radius = t.require_number("radius", kPositive, "radius > 0 [m]", "radius = 0.05");
   p.mass = t.require_number("mass", kPositive, "mass > 0 [kg]", "mass = 1.0");
-  p.position = t.require_vec3("position", "position = [x, y, z]");
-  p.velocity = t.require_vec3("velocity", "velocity = [vx, vy, vz]");
+  if (!t.read_vec3("position", p.position, kMaxDistance, kPositionRange)) t.fail_missing("position", "position = [x, y, z]");
+  if (!t.read_vec3("velocity", p.velocity, kMaxSpeed, kSpeedRange)) t.fail_missing("velocity", "velocity = [vx, vy, vz]");
   t.read_number("launch_time", p.launch_time, kNonNegative, "launch_time >= 0 [s]");
   read_contact(t, p.restitution, p.friction);
 }

@@ -78,12 +78,12 @@ double TextTokens::next_double(std::string_view what) {
   double value = 0.0;
   const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
   if (ec != std::errc() || end != token.data() + token.size()) {
-    throw Error(m_file + ":" + std::to_string(at) + ": expected a number for " + std::string(what) + ", found '" +
-                std::string(token) + "'");
+    throw Error(m_file + ":" + std::to_string(at) + ": expected a number for " + std::string(what) + ", found " +
+                quote_from_file(token));
   }
   if (!std::isfinite(value)) {
-    throw Error(m_file + ":" + std::to_string(at) + ": " + std::string(what) + " is not finite ('" +
-                    std::string(token) + "')",
+    throw Error(m_file + ":" + std::to_string(at) + ": " + std::string(what) + " is not finite (" +
+                    quote_from_file(token) + ")",
                 "NaN and Inf coordinates cannot be embedded; fix the exporter");
   }
   return value;
@@ -95,8 +95,8 @@ std::int64_t TextTokens::next_integer(std::string_view what) {
   std::int64_t value = 0;
   const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
   if (ec != std::errc() || end != token.data() + token.size()) {
-    throw Error(m_file + ":" + std::to_string(at) + ": expected an integer for " + std::string(what) + ", found '" +
-                std::string(token) + "'");
+    throw Error(m_file + ":" + std::to_string(at) + ": expected an integer for " + std::string(what) + ", found " +
+                quote_from_file(token));
   }
   return value;
 }

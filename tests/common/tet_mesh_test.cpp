@@ -50,6 +50,28 @@ TEST(TetMesh, DegenerateTetIsAnErrorNamingIt) {
   }
 }
 
+// TetGen numbers tets and nodes each from 0 or 1: a flat tet names its four nodes in the
+// .node file's numbering, and a bad coordinate names the .node file, not the .ele.
+TEST(TetMesh, ErrorsNameTheFileAndNumberingOfTheNodes) {
+  TetMesh mesh = single_tet();
+  mesh.rest_positions.col(3) << 0.5, 0.5, 0.0;
+  const CageSource source{"cage.1.ele", "cage.1.node", 0, 1};
+  try {
+    validate_and_orient(mesh, source);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cage.1.ele: tet 0 is degenerate"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("nodes 1, 2, 3, 4 of cage.1.node are (nearly) coplanar"), std::string::npos) << e.what();
+  }
+  mesh.rest_positions(1, 2) = std::numeric_limits<double>::infinity();
+  try {
+    validate_and_orient(mesh, source);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cage.1.node: node 3 has a non-finite coordinate"), std::string::npos) << e.what();
+  }
+}
+
 TEST(TetMesh, OutOfRangeAndRepeatedNodesAreErrors) {
   TetMesh mesh = single_tet();
   mesh.tets(3, 0) = 4;

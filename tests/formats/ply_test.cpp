@@ -123,5 +123,14 @@ TEST(Ply, BadValuesNameTheLineOrElement) {
   expect_error(ascii_file().substr(0, ascii_file().size() - 12), {"the file ends before"});
 }
 
+// Bytes from a damaged file are shown escaped: a NUL inside a token used to end the
+// message there, and control bytes went to the terminal as they were.
+TEST(Ply, RawBytesInAMessageAreEscapedNotEchoed) {
+  expect_error(replaced(ascii_file(), "property float y", std::string("prop\0erty float y", 18)),
+               {"m.ply:6: unknown header line 'prop\\x00erty'"});
+  expect_error(replaced(ascii_file(), "1.000000 0.000000 0.000000", "1.000000 \x1b[2J 0.000000"),
+               {"m.ply:", "'\\x1b[2J' is not a number"});
+}
+
 }  // namespace
 }  // namespace fissure::formats

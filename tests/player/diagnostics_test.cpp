@@ -43,6 +43,22 @@ TEST(Diagnostics, EnergyFromNowhereStopsTheRunNamingStepBodyAndCause) {
   EXPECT_NE(end.stop->hint.find("solver.dt"), std::string::npos) << end.stop->hint;
 }
 
+// The scene reader bounds speeds, so a non-finite energy is the last net, for states no
+// scene can ask for: at 1e200 m/s, ½mv² overflows while every position stays finite.
+TEST(Diagnostics, ANonFiniteEnergyStopsTheRunAndSaysWhen) {
+  auto world = bar(false).make();
+  Diagnostics diagnostics;
+  diagnostics.on_start(*world);
+  Matrix3Xd v = world->bodies()[0].integrator().velocities();
+  v.row(0).array() += 1e200;
+  world->set_velocities(0, v);
+  diagnostics.on_step(*world, sim::StepReport{}, 7);
+  ASSERT_NE(diagnostics.stop_request(), nullptr);
+  EXPECT_NE(diagnostics.stop_request()->message.find("at step 7 "), std::string::npos) << diagnostics.stop_request()->message;
+  EXPECT_NE(diagnostics.stop_request()->message.find("non-finite"), std::string::npos) << diagnostics.stop_request()->message;
+  EXPECT_NE(diagnostics.stop_request()->hint.find("solver.dt"), std::string::npos) << diagnostics.stop_request()->hint;
+}
+
 TEST(Diagnostics, WorkPutInFromOutsideIsNotAFault) {
   auto world = bar(true).make();
   RunLoop loop(*world);
