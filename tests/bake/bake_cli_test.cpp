@@ -1,7 +1,9 @@
 // End-to-end tests of the fissure-bake executable: exit codes, messages, outputs.
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <fstream>
+#include <iterator>
 #include <functional>
 #include <sstream>
 
@@ -101,6 +103,32 @@ TEST(BakeCli, AFullDiskIsExitOneWithNothingLeftBehind) {
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("b.h5: cannot write: the file exceeds the size limit"), std::string::npos) << r.output;
   EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
+}
+
+// A real bake interrupted at moments spread over its run (reading, embedding, writing):
+// whatever the moment, it either finished (exit 0, the bundle alone) or ended by the
+// signal with nothing left behind: no bundle, no temporary.
+TEST(BakeCli, ASignalAtAnyMomentLeavesTheBundleWholeOrNothing) {
+  int interrupted = 0;
+  for (const char* signal : {"TERM", "INT"}) {
+    for (int ms = 10; ms <= 250; ms += 40) {
+      testing::TempDir dir;
+      const Result r = testing::run_command(std::string(FISSURE_BAKE_EXE) + " -q bake --mesh " + quoted(kMesh) + " --cage " +
+                                            quoted(kCage) + " -o " + quoted(dir / "b.h5") + " & pid=$!; sleep " +
+                                            std::to_string(ms / 1000.0) + "; kill -" + signal + " $pid; wait $pid; echo status=$?");
+      const std::string at = std::string("SIG") + signal + " after " + std::to_string(ms) + " ms: ";
+      const int expected_killed = 128 + (std::string(signal) == "TERM" ? SIGTERM : SIGINT);
+      if (r.output.find("status=0") != std::string::npos) {
+        EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()), {}), 1) << at << r.output;
+        EXPECT_TRUE(std::filesystem::exists(dir / "b.h5")) << at << r.output;
+      } else {
+        EXPECT_NE(r.output.find("status=" + std::to_string(expected_killed)), std::string::npos) << at << r.output;
+        EXPECT_TRUE(std::filesystem::is_empty(dir.path())) << at << r.output;
+        ++interrupted;
+      }
+    }
+  }
+  EXPECT_GT(interrupted, 0) << "no bake was interrupted: the test checked nothing";
 }
 
 // Inputs that crashed, hung or exhausted memory before issue 17 (tests/data/hostile/README.md).
