@@ -109,6 +109,31 @@ void require_inside_cage_bounds(const SurfaceMesh& mesh, const TetMesh& cage, co
               "enlarge the cage so it encloses the whole mesh (check both are in the same units and frame)");
 }
 
+/// Orients the surface consistently and counts where it crosses itself, warning about
+/// both: what the bake repairs, and what it bakes as it is.
+void repair_surface(SurfaceMesh& mesh, const std::string& mesh_name, BakeStats& s) {
+  const OrientationRepair orientation = orient_surface(mesh);
+  s.flipped_triangles = orientation.flipped();
+  if (orientation.flipped_to_agree > 0) {
+    log_warning(mesh_name + ": flipped " + std::to_string(orientation.flipped_to_agree) +
+                " triangles whose winding disagreed with their neighbours'");
+  }
+  if (orientation.inside_out_pieces > 0) {
+    log_warning(mesh_name + ": turned " + std::to_string(orientation.inside_out_pieces) + " inside-out closed pieces (" +
+                std::to_string(orientation.flipped_inside_out) + " triangles) right side out");
+  }
+  if (orientation.non_orientable > 0) {
+    log_warning(mesh_name + ": " + std::to_string(orientation.non_orientable) +
+                " pieces cannot be oriented consistently (like a Möbius strip); baked as they are");
+  }
+  s.self_intersections = count_self_intersections(mesh);
+  if (s.self_intersections > 0) {
+    log_warning(mesh_name + ": " + std::to_string(s.self_intersections) +
+                " pairs of triangles cross each other; baked as they are: where pieces overlap, the solid counts "
+                "them once (winding number ≥ ½)");
+  }
+}
+
 }  // namespace
 
 std::string generator_string() { return std::string(kGeneratorName) + " " + FISSURE_VERSION; }
@@ -136,31 +161,6 @@ std::string BakeOptions::to_json() const {
   }
   j.end_object();
   return j.str();
-}
-
-/// Orients the surface consistently and counts where it crosses itself, warning about
-/// both: what the bake repairs, and what it bakes as it is.
-void repair_surface(SurfaceMesh& mesh, const std::string& mesh_name, BakeStats& s) {
-  const OrientationRepair orientation = orient_surface(mesh);
-  s.flipped_triangles = orientation.flipped();
-  if (orientation.flipped_to_agree > 0) {
-    log_warning(mesh_name + ": flipped " + std::to_string(orientation.flipped_to_agree) +
-                " triangles whose winding disagreed with their neighbours'");
-  }
-  if (orientation.inside_out_pieces > 0) {
-    log_warning(mesh_name + ": turned " + std::to_string(orientation.inside_out_pieces) + " inside-out closed pieces (" +
-                std::to_string(orientation.flipped_inside_out) + " triangles) right side out");
-  }
-  if (orientation.non_orientable > 0) {
-    log_warning(mesh_name + ": " + std::to_string(orientation.non_orientable) +
-                " pieces cannot be oriented consistently (like a Möbius strip); baked as they are");
-  }
-  s.self_intersections = count_self_intersections(mesh);
-  if (s.self_intersections > 0) {
-    log_warning(mesh_name + ": " + std::to_string(s.self_intersections) +
-                " pairs of triangles cross each other; baked as they are: where pieces overlap, the solid counts "
-                "them once (winding number ≥ ½)");
-  }
 }
 
 formats::Bundle embed(const SurfaceMesh& input_mesh, const TetMesh& cage, const BakeOptions& options,

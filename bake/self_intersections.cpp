@@ -79,7 +79,7 @@ std::size_t count_self_intersections(const SurfaceMesh& mesh) {
       tri.rep[k] = rep[v];
       tri.point[k] = Point(mesh.positions(0, v), mesh.positions(1, v), mesh.positions(2, v));
     }
-    if (tri.rep[0] == tri.rep[1] || tri.rep[1] == tri.rep[2] || tri.rep[0] == tri.rep[2] || is_degenerate(mesh, t)) continue;
+    if (bounds_nothing(mesh, rep, t)) continue;
     boxes.emplace_back(tri.point[0].bbox() + tri.point[1].bbox() + tri.point[2].bbox(), static_cast<Index>(triangles.size()));
     triangles.push_back(tri);
   }

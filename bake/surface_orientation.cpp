@@ -34,8 +34,8 @@ std::vector<std::vector<Neighbour>> manifold_neighbours(const SurfaceMesh& mesh,
   std::vector<EdgeUse> uses;
   uses.reserve(mesh.triangle_count() * 3);
   for (Index t = 0; t < mesh.triangle_count(); ++t) {
+    if (bounds_nothing(mesh, rep, t)) continue;
     const std::array<Index, 3> v = {rep[mesh.triangles(0, t)], rep[mesh.triangles(1, t)], rep[mesh.triangles(2, t)]};
-    if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2] || is_degenerate(mesh, t)) continue;
     for (int k = 0; k < 3; ++k) {
       const Index a = v[k], b = v[(k + 1) % 3];
       uses.push_back({std::min(a, b), std::max(a, b), t, a < b});
@@ -68,11 +68,7 @@ Pieces find_pieces(const SurfaceMesh& mesh) {
   p.piece.assign(mesh.triangle_count(), kInvalidIndex);
   p.parity.assign(mesh.triangle_count(), 0);
   for (Index seed = 0; seed < mesh.triangle_count(); ++seed) {
-    const auto& v = mesh.triangles.col(static_cast<Eigen::Index>(seed));
-    if (p.piece[seed] != kInvalidIndex || rep[v[0]] == rep[v[1]] || rep[v[1]] == rep[v[2]] || rep[v[0]] == rep[v[2]] ||
-        is_degenerate(mesh, seed)) {
-      continue;
-    }
+    if (p.piece[seed] != kInvalidIndex || bounds_nothing(mesh, rep, seed)) continue;
     const Index id = p.count++;
     p.conflicting.push_back(0);
     p.closed.push_back(1);

@@ -44,6 +44,12 @@ std::vector<Index> position_representatives(const Matrix3Xd& positions) {
   return representative;
 }
 
+bool bounds_nothing(const SurfaceMesh& mesh, const std::vector<Index>& representatives, TriangleIndex t) {
+  const Index a = representatives[mesh.triangles(0, t)], b = representatives[mesh.triangles(1, t)],
+              c = representatives[mesh.triangles(2, t)];
+  return a == b || b == c || a == c || is_degenerate(mesh, t);
+}
+
 SurfaceTopology analyze_topology(const SurfaceMesh& mesh) {
   SurfaceTopology topology;
   const std::vector<Index> rep = position_representatives(mesh.positions);

@@ -42,4 +42,9 @@ SurfaceTopology analyze_topology(const SurfaceMesh& mesh);
 /// For every vertex, the smallest index of a vertex at the bit-identical position.
 std::vector<Index> position_representatives(const Matrix3Xd& positions);
 
+/// A triangle that bounds nothing: two corners at one position (through `representatives`
+/// from position_representatives) or is_degenerate. Surface repair and the
+/// self-intersection count leave such triangles out.
+bool bounds_nothing(const SurfaceMesh& mesh, const std::vector<Index>& representatives, TriangleIndex t);
+
 }  // namespace fissure
