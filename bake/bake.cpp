@@ -326,13 +326,14 @@ formats::Bundle bake_files(const std::filesystem::path& mesh_path, const std::fi
   formats::Bundle bundle = embed(imported.mesh, cage.mesh, options, mesh_path.string(), cage_path.string(), &s);
   bundle.metadata.generator = generator_string();
   bundle.metadata.bake_options = options.to_json();
-  bundle.metadata.inputs.push_back({"mesh", mesh_path.filename().string(), sha256_hex({mesh_path})});
+  // Where they were (BundleInput::path) depends on the bundle's place: the CLI records it.
+  bundle.metadata.inputs.push_back({"mesh", mesh_path.filename().string(), sha256_hex({mesh_path}), ""});
   const bool pair = cage.element_path != cage.node_path;
   bundle.metadata.inputs.push_back(
       {"cage",
        pair ? cage.node_path.filename().string() + "+" + cage.element_path.filename().string()
             : cage.node_path.filename().string(),
-       pair ? sha256_hex({cage.node_path, cage.element_path}) : sha256_hex({cage.node_path})});
+       pair ? sha256_hex({cage.node_path, cage.element_path}) : sha256_hex({cage.node_path}), ""});
   return bundle;
 }
 

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "bake/bake.h"
+#include "bake/bundle_status.h"
 #include "bake/replication.h"
 #include "common/error.h"
 #include "common/log.h"
@@ -20,23 +21,84 @@
 #include "formats/bundle_checks.h"
 #include "formats/bundle_inspect.h"
 #include "formats/bundle.h"
+#include "formats/cage_io.h"
 
 namespace {
 
 using namespace fissure;
 
-/// The cage as given, and the other half of a TetGen .node/.ele pair.
+/// The mesh, the cage as given, and both halves of a TetGen .node/.ele pair.
 std::vector<std::filesystem::path> bake_inputs(const std::filesystem::path& mesh, const std::filesystem::path& cage) {
   std::vector<std::filesystem::path> inputs{mesh, cage};
-  for (const char* extension : {".node", ".ele"}) inputs.push_back(std::filesystem::path(cage).replace_extension(extension));
+  for (const auto& file : formats::cage_files(cage)) inputs.push_back(file);
   return inputs;
 }
+
+/// The flags that shape a bundle's content, shared by `bake` and `status` (which compares
+/// them with what a bundle was baked with).
+struct BakeFlags {
+  bool weld = false;
+  std::vector<std::string> only, skip;
+  int wall_res = static_cast<int>(bake::WallOptions{}.resolution);
+  double wall_budget_mib = static_cast<double>(bake::WallOptions{}.memory_budget_bytes >> 20);
+  std::optional<double> sphere_radius;
+  double winding_accuracy = bake::BakeOptions{}.winding_accuracy;
+  std::vector<CLI::Option*> options;  ///< to tell whether any was given
+
+  void add_to(CLI::App* command) {
+    options = {
+        command->add_flag("--weld", weld, "Merge vertices at identical positions even across normal/UV seams"),
+        command->add_option("--only", only, "Run only these optional stages: walls, collision (the embedding always runs)")
+            ->check(CLI::IsMember({"walls", "collision"})),
+        command->add_option("--skip", skip, "Skip these optional stages: walls, collision")
+            ->check(CLI::IsMember({"walls", "collision"})),
+        command->add_option("--wall-res", wall_res, "Wall tile resolution, texels per side")->capture_default_str(),
+        command->add_option("--wall-memory-budget", wall_budget_mib, "Largest wall tile data to bake, MiB")
+            ->capture_default_str(),
+        command->add_option("--sphere-radius", sphere_radius,
+                            "Target collision-sphere radius in mesh units (default: a fifth of the median cage edge)"),
+        command->add_option("--winding-accuracy", winding_accuracy,
+                            "Fast winding-number accuracy beta (larger = more exact, slower)")
+            ->check(CLI::Range(1.0, 100.0))
+            ->capture_default_str(),
+    };
+  }
+
+  [[nodiscard]] bool any_given() const {
+    return std::any_of(options.begin(), options.end(), [](const CLI::Option* o) { return o->count() > 0; });
+  }
+
+  [[nodiscard]] bake::BakeOptions to_options() const {
+    if (!only.empty() && !skip.empty()) throw Error("--only and --skip cannot be combined", "use one of them");
+    auto listed = [](const std::vector<std::string>& list, const char* stage) {
+      return std::find(list.begin(), list.end(), stage) != list.end();
+    };
+    bake::BakeOptions options;
+    options.import.weld = weld;
+    options.winding_accuracy = winding_accuracy;
+    options.walls = only.empty() ? !listed(skip, "walls") : listed(only, "walls");
+    options.collision = only.empty() ? !listed(skip, "collision") : listed(only, "collision");
+    if (wall_res <= 0) throw Error("--wall-res " + std::to_string(wall_res) + " must be positive", "use 8 … 256");
+    options.wall.resolution = static_cast<std::uint32_t>(wall_res);
+    if (!(wall_budget_mib > 0)) throw Error("--wall-memory-budget must be positive (MiB)");
+    options.wall.memory_budget_bytes = static_cast<std::size_t>(wall_budget_mib * 1024.0 * 1024.0);
+    if (sphere_radius) {
+      if (!(*sphere_radius > 0.0) || !std::isfinite(*sphere_radius)) {
+        throw Error("--sphere-radius " + std::to_string(*sphere_radius) + " must be a positive length",
+                    "give a radius in the mesh's units, e.g. 0.005, or leave it out for the default");
+      }
+      options.spheres.radius = *sphere_radius;
+    }
+    return options;
+  }
+};
 
 int run_bake(const std::string& mesh, const std::string& cage, const std::string& output, const bake::BakeOptions& options) {
   // A bad output path fails now, not after the bake.
   check_output_path(output, bake_inputs(mesh, cage), "-o");
   const StageTimer total("bake total");
-  const formats::Bundle bundle = bake::bake_files(mesh, cage, options);
+  formats::Bundle bundle = bake::bake_files(mesh, cage, options);
+  bake::record_input_paths(bundle.metadata, mesh, cage, output);
   // The bake checks its own result before writing: a bundle on disk always verifies.
   const auto verify_start = std::chrono::steady_clock::now();
   const formats::VerifyReport report = formats::verify_bundle(bundle);
@@ -65,6 +127,28 @@ int run_inspect(const std::string& path, bool json) {
   return 0;
 }
 
+struct StatusArgs {
+  std::vector<std::string> bundles;
+  std::string mesh, cage;
+  bool json = false;
+};
+
+int run_status(const StatusArgs& args, const BakeFlags& flags) {
+  bake::StatusQuery query;
+  if (!args.mesh.empty()) query.mesh = args.mesh;
+  if (!args.cage.empty()) query.cage = args.cage;
+  if (flags.any_given()) query.options_json = flags.to_options().to_json();
+  if (args.bundles.size() > 1 && (query.mesh || query.cage || query.options_json)) {
+    throw Error("--mesh, --cage and bake flags describe one bundle, but " + std::to_string(args.bundles.size()) +
+                    " were given",
+                "ask about one bundle at a time, or leave them out to compare with what each bundle recorded");
+  }
+  std::vector<bake::BundleStatus> statuses;
+  for (const std::string& bundle : args.bundles) statuses.push_back(bake::bundle_status(bundle, query));
+  std::fputs((args.json ? bake::status_json(statuses) : bake::status_text(statuses)).c_str(), stdout);
+  return bake::status_exit_code(statuses);
+}
+
 int run_verify(const std::string& path) {
   const formats::Bundle bundle = formats::read_bundle(path);
   const formats::VerifyReport report = formats::verify_bundle(bundle);
@@ -88,38 +172,32 @@ int main(int argc, char** argv) {
   app.add_flag("-v,--verbose", verbose, "Print debug detail");
   app.add_option("-j,--threads", threads, "Worker threads (default: all cores)")->check(CLI::Range(0, kMaxThreads));
 
-  fissure::bake::BakeOptions options;
   std::string mesh, cage, output;
+  BakeFlags bake_flags;
   auto* bake_cmd = app.add_subcommand("bake", "Embed --mesh in --cage and write the bundle to -o");
   bake_cmd->add_option("--mesh", mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")->required();
   bake_cmd->add_option("--cage", cage, "Tetrahedral cage: .node/.ele (TetGen), .msh (Gmsh 2.2/4.1), .mesh (MEDIT)")
       ->required();
   bake_cmd->add_option("-o,--output", output, "Bundle to write (.h5); written atomically")->required();
-  bake_cmd->add_flag("--weld", options.import.weld,
-                     "Merge vertices at identical positions even across normal/UV seams");
-  std::vector<std::string> only, skip;
-  int wall_res = static_cast<int>(options.wall.resolution);
-  double wall_budget_mib = static_cast<double>(options.wall.memory_budget_bytes >> 20);
-  std::optional<double> sphere_radius;
-  bake_cmd->add_option("--only", only, "Run only these optional stages: walls, collision (the embedding always runs)")
-      ->check(CLI::IsMember({"walls", "collision"}));
-  bake_cmd->add_option("--skip", skip, "Skip these optional stages: walls, collision")
-      ->check(CLI::IsMember({"walls", "collision"}));
-  bake_cmd->add_option("--wall-res", wall_res, "Wall tile resolution, texels per side")->capture_default_str();
-  bake_cmd->add_option("--wall-memory-budget", wall_budget_mib, "Largest wall tile data to bake, MiB")
-      ->capture_default_str();
-  bake_cmd->add_option("--sphere-radius", sphere_radius,
-                       "Target collision-sphere radius in mesh units (default: a fifth of the median cage edge)");
-  bake_cmd->add_option("--winding-accuracy", options.winding_accuracy,
-                       "Fast winding-number accuracy beta (larger = more exact, slower)")
-      ->check(CLI::Range(1.0, 100.0))
-      ->capture_default_str();
-
+  bake_flags.add_to(bake_cmd);
   std::string bundle_path;
   bool json = false;
   auto* inspect_cmd = app.add_subcommand("inspect", "Summarise a bundle: counts, sizes, stages");
   inspect_cmd->add_option("bundle", bundle_path, "Bundle (.h5)")->required();
   inspect_cmd->add_flag("--json", json, "Machine-readable JSON on stdout");
+
+  StatusArgs status_args;
+  BakeFlags status_flags;
+  auto* status_cmd = app.add_subcommand(
+      "status",
+      "Is each bundle what baking its inputs today would write? Compares the inputs' SHA-256 (found where the bake "
+      "read them, relative to the bundle), the bake's version and, when bake flags are given, the options. "
+      "Exit 0: all up to date; 3: one is stale (or missing, or unreadable); 4: an input cannot be found");
+  status_cmd->add_option("bundles", status_args.bundles, "Bundles (.h5)")->required();
+  status_cmd->add_option("--mesh", status_args.mesh, "The mesh to compare with (default: where the bake read it)");
+  status_cmd->add_option("--cage", status_args.cage, "The cage to compare with (default: where the bake read it)");
+  status_cmd->add_flag("--json", status_args.json, "Machine-readable JSON on stdout");
+  status_flags.add_to(status_cmd);
 
   auto* verify_cmd = app.add_subcommand("verify", "Check every invariant of a bundle; exit 1 if one fails");
   verify_cmd->add_option("bundle", bundle_path, "Bundle (.h5)")->required();
@@ -145,29 +223,13 @@ int main(int argc, char** argv) {
 
   try {
     if (*bake_cmd) {
-      if (!only.empty() && !skip.empty()) throw Error("--only and --skip cannot be combined", "use one of them");
-      auto listed = [](const std::vector<std::string>& list, const char* stage) {
-        return std::find(list.begin(), list.end(), stage) != list.end();
-      };
-      options.walls = only.empty() ? !listed(skip, "walls") : listed(only, "walls");
-      options.collision = only.empty() ? !listed(skip, "collision") : listed(only, "collision");
-      if (wall_res <= 0) throw Error("--wall-res " + std::to_string(wall_res) + " must be positive", "use 8 … 256");
-      options.wall.resolution = static_cast<std::uint32_t>(wall_res);
-      if (!(wall_budget_mib > 0)) throw Error("--wall-memory-budget must be positive (MiB)");
-      options.wall.memory_budget_bytes = static_cast<std::size_t>(wall_budget_mib * 1024.0 * 1024.0);
-      if (sphere_radius) {
-        if (!(*sphere_radius > 0.0) || !std::isfinite(*sphere_radius)) {
-          throw Error("--sphere-radius " + std::to_string(*sphere_radius) + " must be a positive length",
-                      "give a radius in the mesh's units, e.g. 0.005, or leave it out for the default");
-        }
-        options.spheres.radius = *sphere_radius;
-      }
-      return run_bake(mesh, cage, output, options);
+      return run_bake(mesh, cage, output, bake_flags.to_options());
     }
     if (*inspect_cmd) return run_inspect(bundle_path, json);
     if (*verify_cmd) return run_verify(bundle_path);
+    if (*status_cmd) return run_status(status_args, status_flags);
     if (*replication_cmd) {
-      const auto rows = fissure::bake::replication_study(mesh, cages, options.import);
+      const auto rows = fissure::bake::replication_study(mesh, cages, fissure::bake::BakeOptions{}.import);
       std::fputs((json ? fissure::bake::replication_json(rows) : fissure::bake::replication_table(rows)).c_str(), stdout);
       return 0;
     }

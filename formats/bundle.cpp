@@ -84,6 +84,7 @@ void write_contents(hid_t file, const Bundle& b) {
       const h5::Handle group = h5::create_group(inputs.id(), input.role);
       h5::write_attribute(group.id(), "file", input.name);
       h5::write_attribute(group.id(), "sha256", input.sha256);
+      if (!input.path.empty()) h5::write_attribute(group.id(), "path", input.path);
     }
   }
   {
@@ -235,7 +236,8 @@ BundleMetadata read_metadata(const Reader& reader, hid_t file) {
     for (const std::string& role : h5::list_links(inputs.id())) {
       const h5::Handle group = h5::open_group(inputs.id(), role);
       meta.inputs.push_back({role, h5::read_string_attribute(group.id(), "file").value_or(""),
-                             h5::read_string_attribute(group.id(), "sha256").value_or("")});
+                             h5::read_string_attribute(group.id(), "sha256").value_or(""),
+                             h5::read_string_attribute(group.id(), "path").value_or("")});
     }
   }
   return meta;

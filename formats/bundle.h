@@ -21,13 +21,18 @@ namespace fissure::formats {
 
 inline constexpr const char* kBundleFormatName = "fissure-bundle";
 inline constexpr int kBundleSchemaMajor = 1;
-inline constexpr int kBundleSchemaMinor = 1;  ///< 1.1 added walls/face_clearance
+/// 1.1 added walls/face_clearance; 1.2 added /inputs/<role>@path (for `fissure-bake
+/// status`) and /embedding@surface_self_intersections.
+inline constexpr int kBundleSchemaMinor = 2;
 
 /// One input file of the bake, so pipelines can tell when a bundle is stale.
 struct BundleInput {
   std::string role;    ///< "mesh", "cage"
   std::string name;    ///< file name(s) as given, without directories
   std::string sha256;  ///< hex digest of the file bytes (for a TetGen pair: .node then .ele)
+  /// Where the bake read it, relative to the bundle's folder, '/'-separated (a TetGen
+  /// pair: the .node); empty when unknown (schema < 1.2, or written by a library call).
+  std::string path;
 };
 
 struct BundleMetadata {

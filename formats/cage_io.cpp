@@ -344,13 +344,17 @@ CageFile read_medit(const std::filesystem::path& path) {
   return cage;
 }
 
+std::vector<std::filesystem::path> cage_files(const std::filesystem::path& path) {
+  const std::string ext = lowercase_extension(path);
+  if (ext != ".node" && ext != ".ele") return {path};
+  return {std::filesystem::path(path).replace_extension(".node"), std::filesystem::path(path).replace_extension(".ele")};
+}
+
 CageFile read_cage(const std::filesystem::path& path) {
   const std::string ext = lowercase_extension(path);
   if (ext == ".node" || ext == ".ele") {
-    std::filesystem::path node = path, ele = path;
-    node.replace_extension(".node");
-    ele.replace_extension(".ele");
-    return read_tetgen(node, ele);
+    const auto files = cage_files(path);
+    return read_tetgen(files[0], files[1]);
   }
   if (ext == ".msh") return read_gmsh(path);
   if (ext == ".mesh") return read_medit(path);

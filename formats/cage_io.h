@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <vector>
 #include <string>
 
 #include "common/tet_mesh.h"
@@ -23,6 +24,10 @@ struct CageFile {
 /// Reads a cage, picking the format from the extension: `.node` or `.ele` (the other
 /// file of the pair is found beside it), `.msh`, `.mesh`. Throws fissure::Error.
 CageFile read_cage(const std::filesystem::path& path);
+
+/// The files a cage is read from: a TetGen `.node` or `.ele` names both halves of the
+/// pair (.node first); any other format, the file itself.
+std::vector<std::filesystem::path> cage_files(const std::filesystem::path& path);
 
 CageFile read_tetgen(const std::filesystem::path& node_path, const std::filesystem::path& ele_path);
 CageFile read_gmsh(const std::filesystem::path& path);

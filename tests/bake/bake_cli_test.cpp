@@ -105,6 +105,81 @@ TEST(BakeCli, AFullDiskIsExitOneWithNothingLeftBehind) {
   EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
 }
 
+// `status` (issue 18): a bundle records where its inputs were, relative to itself, their
+// SHA-256, the options and the bake's version; status says whether re-baking would change
+// it, and its exit code tells a build or CI job what to do.
+class BakeStatus : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::filesystem::create_directories(dir / "assets");
+    std::filesystem::create_directories(dir / "out");
+    std::filesystem::copy_file(kMesh, dir / "assets" / "m.obj");
+    for (const char* ext : {".node", ".ele"}) {
+      std::filesystem::copy_file(std::filesystem::path(kSmallCage).replace_extension(ext), dir / "assets" / (std::string("c") + ext));
+    }
+    const Result bake = run("-q bake --mesh " + quoted(dir / "assets" / "m.obj") + " --cage " + quoted(dir / "assets" / "c.node") +
+                            " -o " + quoted(bundle) + " --wall-res 16");
+    ASSERT_EQ(bake.exit_code, 0) << bake.output;
+  }
+  const std::filesystem::path kSmallCage = testing::data_dir() / "cages" / "bunny-5k-cage-10.node";
+  testing::TempDir dir;
+  std::filesystem::path bundle = dir / "out" / "b.h5";
+};
+
+TEST_F(BakeStatus, AFreshBundleIsUpToDateWhereverTheTreeIsMoved) {
+  Result r = run("status " + quoted(bundle));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("b.h5: up-to-date"), std::string::npos) << r.output;
+  // The same flags as the bake: still up to date.
+  r = run("status " + quoted(bundle) + " --wall-res 16 --json");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("{\"up_to_date\":true,\"bundles\":[{\"bundle\":"), std::string::npos) << r.output;
+  // Inputs are found relative to the bundle, so a moved checkout still checks.
+  const auto moved = dir / "moved";
+  std::filesystem::create_directories(moved);
+  std::filesystem::rename(dir / "assets", moved / "assets");
+  std::filesystem::rename(dir / "out", moved / "out");
+  r = run("status " + quoted(moved / "out" / "b.h5"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+}
+
+TEST_F(BakeStatus, AChangedInputOptionOrMissingBundleIsStaleWithExit3) {
+  std::ofstream(dir / "assets" / "c.ele", std::ios::app) << "# edited\n";
+  Result r = run("status " + quoted(bundle) + " " + quoted(dir / "out" / "never-baked.h5"));
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("cage " + (dir / "assets" / "c.node").string() + " changed since the bake"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("never-baked.h5: stale\n  not baked yet"), std::string::npos) << r.output;
+  r = run("status " + quoted(bundle) + " --cage " + quoted(kSmallCage) + " --wall-res 32 --skip collision");
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_EQ(r.output.find("changed since the bake"), std::string::npos) << "the original cage was asked for: " << r.output;
+  EXPECT_NE(r.output.find("options differ: stages [\"embedding\",\"walls\",\"collision\"] -> [\"embedding\",\"walls\"], "
+                          "wall_resolution 16 -> 32"),
+            std::string::npos)
+      << r.output;
+}
+
+TEST_F(BakeStatus, AMissingInputIsExit4AndOutranksStale) {
+  std::filesystem::remove(dir / "assets" / "m.obj");
+  const Result r = run("status --json " + quoted(bundle) + " " + quoted(dir / "out" / "never-baked.h5"));
+  EXPECT_EQ(r.exit_code, 4) << r.output;
+  EXPECT_NE(r.output.find("\"state\":\"missing-input\",\"reasons\":[\"mesh " + (dir / "assets" / "m.obj").string() + " not found\"]"),
+            std::string::npos)
+      << r.output;
+  // A bundle from before schema 1.2 does not know where its inputs were.
+  const Result old = run("status " + quoted(std::filesystem::path(FISSURE_TEST_FILES_DIR) / "two-tet-schema-1.1.h5"));
+  EXPECT_EQ(old.exit_code, 4) << old.output;
+  EXPECT_NE(old.output.find("baked by test; this is fissure-bake "), std::string::npos) << old.output;
+  EXPECT_NE(old.output.find("does not record where its mesh (tri.obj) was read (baked before schema 1.2): pass --mesh"),
+            std::string::npos)
+      << old.output;
+}
+
+TEST_F(BakeStatus, InputsOrFlagsForSeveralBundlesAreAUsageError) {
+  const Result r = run("status " + quoted(bundle) + " " + quoted(bundle) + " --weld");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("describe one bundle, but 2 were given"), std::string::npos) << r.output;
+}
+
 // A real bake interrupted at moments spread over its run (reading, embedding, writing):
 // whatever the moment, it either finished (exit 0, the bundle alone) or ended by the
 // signal with nothing left behind: no bundle, no temporary.

@@ -43,6 +43,8 @@ TEST(Bundle, WriteReadRoundTripKeepsEveryField) {
   ASSERT_EQ(read.metadata.inputs.size(), 2u);
   EXPECT_EQ(read.metadata.inputs[0].role, "cage");  // stored by name, read back in name order
   EXPECT_EQ(read.metadata.inputs[1].sha256, std::string(64, 'a'));
+  EXPECT_EQ(read.metadata.inputs[1].path, "../assets/tri.obj");
+  EXPECT_EQ(read.metadata.inputs[0].path, "../assets/two.node");
   EXPECT_EQ(read.render.positions, original.render.positions);
   EXPECT_EQ(read.render.triangles, original.render.triangles);
   EXPECT_EQ(read.cage.rest_positions, original.cage.rest_positions);
@@ -123,11 +125,11 @@ TEST(Bundle, OnlyTheLegacyContainerWithoutChecksumsIsProbedInAChild) {
   EXPECT_FALSE(h5::has_checksummed_metadata(dir / "missing.h5"));
 }
 
-TEST(Bundle, WriterStillProducesThePinnedSchema11BytesForTheSameContent) {
+TEST(Bundle, WriterStillProducesThePinnedSchema12BytesForTheSameContent) {
   // Determinism across builds and runs: the writer's output for fixed content is pinned
   // (to Debian 12's HDF5 1.10.8; a library upgrade that changes the bytes must re-pin it,
   // as must a new schema version: FISSURE_UPDATE_GOLDEN=1 rewrites the file).
-  const std::filesystem::path pinned = std::filesystem::path(FISSURE_TEST_FILES_DIR) / "two-tet-schema-1.1.h5";
+  const std::filesystem::path pinned = std::filesystem::path(FISSURE_TEST_FILES_DIR) / "two-tet-schema-1.2.h5";
   if (std::getenv("FISSURE_UPDATE_GOLDEN") != nullptr) write_bundle(pinned, testing::two_tet_bundle());
   TempDir dir;
   write_bundle(dir / "now.h5", testing::two_tet_bundle());

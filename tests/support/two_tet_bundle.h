@@ -12,7 +12,8 @@ inline formats::Bundle two_tet_bundle() {
   formats::Bundle b;
   b.metadata.generator = "test";
   b.metadata.bake_options = "{}";
-  b.metadata.inputs = {{"mesh", "tri.obj", std::string(64, 'a')}, {"cage", "two.node+two.ele", std::string(64, 'b')}};
+  b.metadata.inputs = {{"mesh", "tri.obj", std::string(64, 'a'), "../assets/tri.obj"},
+                       {"cage", "two.node+two.ele", std::string(64, 'b'), "../assets/two.node"}};
   b.cage.rest_positions.resize(3, 5);
   b.cage.rest_positions << 0, 1, 0, 0, 1,  //
       0, 0, 1, 0, 1,                      //
