@@ -152,7 +152,10 @@ int run_status(const StatusArgs& args, const BakeFlags& flags) {
 int run_verify(const std::string& path) {
   const formats::Bundle bundle = formats::read_bundle(path);
   const formats::VerifyReport report = formats::verify_bundle(bundle);
+  // -q: the failures and the verdict only, for build logs.
+  const bool quiet = log_level() < LogLevel::Info;
   for (const auto& check : report.checks) {
+    if (quiet && check.passed) continue;
     std::printf("%s  %-28s %s\n", check.passed ? "PASS" : "FAIL", check.name.c_str(), check.detail.c_str());
   }
   std::printf("%s: %s\n", path.c_str(), report.passed() ? "all invariants hold" : "INVALID");
