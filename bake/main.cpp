@@ -18,10 +18,12 @@
 #include "common/error.h"
 #include "common/log.h"
 #include "common/output_file.h"
+#include "formats/bundle_budgets.h"
 #include "formats/bundle_checks.h"
 #include "formats/bundle_inspect.h"
 #include "formats/bundle.h"
 #include "formats/cage_io.h"
+#include "formats/junit.h"
 
 namespace {
 
@@ -149,17 +151,64 @@ int run_status(const StatusArgs& args, const BakeFlags& flags) {
   return bake::status_exit_code(statuses);
 }
 
-int run_verify(const std::string& path) {
-  const formats::Bundle bundle = formats::read_bundle(path);
-  const formats::VerifyReport report = formats::verify_bundle(bundle);
+struct VerifyArgs {
+  std::vector<std::string> bundles;
+  std::string junit;
+  std::optional<double> max_instances_per_triangle, max_size_mib;
+  std::optional<std::uint64_t> max_spheres, max_tiles;
+
+  [[nodiscard]] formats::BundleBudgets budgets() const {
+    formats::BundleBudgets b;
+    b.instances_per_triangle = max_instances_per_triangle;
+    if (max_size_mib) b.file_bytes = static_cast<std::uint64_t>(*max_size_mib * 1024.0 * 1024.0);
+    b.spheres = max_spheres;
+    b.tiles = max_tiles;
+    return b;
+  }
+};
+
+/// One bundle's invariants and budgets, printed; a bundle that cannot be read is
+/// reported (file and reason) and counted as failed, and the next one is checked.
+formats::JunitSuite verify_one(const std::string& path, const formats::BundleBudgets& budgets) {
+  formats::JunitSuite suite{path, {}, {}};
+  try {
+    const formats::Bundle bundle = formats::read_bundle(path);
+    suite.cases = formats::verify_bundle(bundle).checks;
+    for (auto& check : formats::check_budgets(bundle, std::filesystem::file_size(path), budgets)) suite.cases.push_back(check);
+  } catch (const Error& e) {
+    std::fflush(stdout);  // keep the earlier bundles' lines before this one's error
+    std::fputs(format_error(e).c_str(), stderr);
+    suite.error = e.what();
+    return suite;
+  }
   // -q: the failures and the verdict only, for build logs.
   const bool quiet = log_level() < LogLevel::Info;
-  for (const auto& check : report.checks) {
+  bool passed = true;
+  for (const auto& check : suite.cases) {
+    passed = passed && check.passed;
     if (quiet && check.passed) continue;
     std::printf("%s  %-28s %s\n", check.passed ? "PASS" : "FAIL", check.name.c_str(), check.detail.c_str());
   }
-  std::printf("%s: %s\n", path.c_str(), report.passed() ? "all invariants hold" : "INVALID");
-  return report.passed() ? 0 : 1;
+  std::printf("%s: %s\n", path.c_str(), passed ? "all invariants hold" : "INVALID");
+  return suite;
+}
+
+int run_verify(const VerifyArgs& args) {
+  std::vector<std::filesystem::path> bundles(args.bundles.begin(), args.bundles.end());
+  if (!args.junit.empty()) check_output_path(args.junit, bundles, "--junit");
+  std::vector<formats::JunitSuite> suites;
+  bool passed = true;
+  for (const std::string& path : args.bundles) {
+    suites.push_back(verify_one(path, args.budgets()));
+    const auto& cases = suites.back().cases;
+    passed = passed && suites.back().error.empty() &&
+             std::all_of(cases.begin(), cases.end(), [](const formats::VerifyCheck& c) { return c.passed; });
+  }
+  if (!args.junit.empty()) write_file_atomically(args.junit, formats::junit_xml(suites));
+  if (args.bundles.size() > 1) {
+    std::printf("%zu bundles: %s\n", args.bundles.size(), passed ? "all pass" : "at least one FAILED (see above)");
+  }
+  return passed ? 0 : 1;
 }
 
 }  // namespace
@@ -202,8 +251,19 @@ int main(int argc, char** argv) {
   status_cmd->add_flag("--json", status_args.json, "Machine-readable JSON on stdout");
   status_flags.add_to(status_cmd);
 
-  auto* verify_cmd = app.add_subcommand("verify", "Check every invariant of a bundle; exit 1 if one fails");
-  verify_cmd->add_option("bundle", bundle_path, "Bundle (.h5)")->required();
+  VerifyArgs verify_args;
+  auto* verify_cmd = app.add_subcommand(
+      "verify", "Check every invariant of each bundle, and the budgets given; exit 1 if one fails or cannot be read");
+  verify_cmd->add_option("bundles", verify_args.bundles, "Bundles (.h5)")->required();
+  verify_cmd->add_option("--junit", verify_args.junit,
+                         "Also write a JUnit XML report (one suite per bundle, one case per check) for CI test reporters");
+  verify_cmd->add_option("--max-instances-per-triangle", verify_args.max_instances_per_triangle,
+                         "Budget: stored triangle instances per render triangle (draw cost)")
+      ->check(CLI::PositiveNumber);
+  verify_cmd->add_option("--max-size-mib", verify_args.max_size_mib, "Budget: the bundle file's size, MiB")
+      ->check(CLI::PositiveNumber);
+  verify_cmd->add_option("--max-spheres", verify_args.max_spheres, "Budget: collision spheres (contact cost)");
+  verify_cmd->add_option("--max-tiles", verify_args.max_tiles, "Budget: wall tiles (texture memory)");
 
   std::vector<std::string> cages;
   auto* replication_cmd =
@@ -229,7 +289,7 @@ int main(int argc, char** argv) {
       return run_bake(mesh, cage, output, bake_flags.to_options());
     }
     if (*inspect_cmd) return run_inspect(bundle_path, json);
-    if (*verify_cmd) return run_verify(bundle_path);
+    if (*verify_cmd) return run_verify(verify_args);
     if (*status_cmd) return run_status(status_args, status_flags);
     if (*replication_cmd) {
       const auto rows = fissure::bake::replication_study(mesh, cages, fissure::bake::BakeOptions{}.import);

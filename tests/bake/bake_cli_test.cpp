@@ -108,7 +108,7 @@ TEST(BakeCli, AFullDiskIsExitOneWithNothingLeftBehind) {
 // `status` (issue 18): a bundle records where its inputs were, relative to itself, their
 // SHA-256, the options and the bake's version; status says whether re-baking would change
 // it, and its exit code tells a build or CI job what to do.
-class BakeStatus : public ::testing::Test {
+class BakePipeline : public ::testing::Test {
  protected:
   void SetUp() override {
     std::filesystem::create_directories(dir / "assets");
@@ -126,7 +126,7 @@ class BakeStatus : public ::testing::Test {
   std::filesystem::path bundle = dir / "out" / "b.h5";
 };
 
-TEST_F(BakeStatus, AFreshBundleIsUpToDateWhereverTheTreeIsMoved) {
+TEST_F(BakePipeline, AFreshBundleIsUpToDateWhereverTheTreeIsMoved) {
   Result r = run("status " + quoted(bundle));
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("b.h5: up-to-date"), std::string::npos) << r.output;
@@ -143,7 +143,7 @@ TEST_F(BakeStatus, AFreshBundleIsUpToDateWhereverTheTreeIsMoved) {
   EXPECT_EQ(r.exit_code, 0) << r.output;
 }
 
-TEST_F(BakeStatus, AChangedInputOptionOrMissingBundleIsStaleWithExit3) {
+TEST_F(BakePipeline, AChangedInputOptionOrMissingBundleIsStaleWithExit3) {
   std::ofstream(dir / "assets" / "c.ele", std::ios::app) << "# edited\n";
   Result r = run("status " + quoted(bundle) + " " + quoted(dir / "out" / "never-baked.h5"));
   EXPECT_EQ(r.exit_code, 3) << r.output;
@@ -158,7 +158,7 @@ TEST_F(BakeStatus, AChangedInputOptionOrMissingBundleIsStaleWithExit3) {
       << r.output;
 }
 
-TEST_F(BakeStatus, AMissingInputIsExit4AndOutranksStale) {
+TEST_F(BakePipeline, AMissingInputIsExit4AndOutranksStale) {
   std::filesystem::remove(dir / "assets" / "m.obj");
   const Result r = run("status --json " + quoted(bundle) + " " + quoted(dir / "out" / "never-baked.h5"));
   EXPECT_EQ(r.exit_code, 4) << r.output;
@@ -174,10 +174,45 @@ TEST_F(BakeStatus, AMissingInputIsExit4AndOutranksStale) {
       << old.output;
 }
 
-TEST_F(BakeStatus, InputsOrFlagsForSeveralBundlesAreAUsageError) {
+TEST_F(BakePipeline, InputsOrFlagsForSeveralBundlesAreAUsageError) {
   const Result r = run("status " + quoted(bundle) + " " + quoted(bundle) + " --weld");
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("describe one bundle, but 2 were given"), std::string::npos) << r.output;
+}
+
+// verify over several bundles for CI: budgets fail with the measured value against the
+// limit, an unreadable bundle is reported and the rest still checked, and --junit writes
+// the same verdicts as JUnit XML (one suite per bundle, one case per check).
+TEST_F(BakePipeline, VerifyChecksBudgetsOverManyBundlesAndWritesJunit) {
+  const auto junit = dir / "report.xml";
+  const auto broken = dir.write("broken.h5", "not a bundle");
+  const Result r = run("-q verify " + quoted(bundle) + " " + quoted(broken) + " " + quoted(bundle) +
+                       " --max-instances-per-triangle 1.1 --max-spheres 100000 --max-tiles 10 --junit " + quoted(junit));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("FAIL  budget:tiles                 "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(" tiles exceeds the budget of 10 tiles"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("PASS"), std::string::npos) << "-q prints failures only: " << r.output;
+  EXPECT_NE(r.output.find("error: " + broken.string() + ": not an HDF5 file"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("3 bundles: at least one FAILED"), std::string::npos) << r.output;
+
+  const std::string xml = bytes_of(junit);
+  // 9 invariants (no walls check fails here) + 3 budgets per readable bundle, twice, and
+  // one read error; the instances budget holds or not as measured, tiles fails twice.
+  EXPECT_NE(xml.find("<testsuites name=\"fissure-bake verify\" tests=\""), std::string::npos) << xml;
+  EXPECT_NE(xml.find("errors=\"1\">"), std::string::npos) << xml;
+  EXPECT_NE(xml.find("<testcase classname=\"" + broken.string() + "\" name=\"read\">\n      <error message=\"" + broken.string()),
+            std::string::npos)
+      << xml;
+  EXPECT_NE(xml.find("name=\"budget:tiles\">\n      <failure message=\""), std::string::npos) << xml;
+  EXPECT_NE(xml.find("name=\"barycentric-sums\"><system-out>"), std::string::npos) << xml;
+
+  // Without budgets and with good bundles: exit 0 and every case passes.
+  const Result ok = run("-q verify " + quoted(bundle) + " --junit " + quoted(junit));
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_NE(bytes_of(junit).find("failures=\"0\" errors=\"0\">"), std::string::npos) << bytes_of(junit);
+  // The report never replaces a bundle.
+  EXPECT_EQ(run("verify " + quoted(bundle) + " --junit " + quoted(bundle)).exit_code, 1);
+  EXPECT_EQ(run("verify " + quoted(bundle)).exit_code, 0);
 }
 
 // A real bake interrupted at moments spread over its run (reading, embedding, writing):

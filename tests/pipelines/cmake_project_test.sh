@@ -42,6 +42,18 @@ out=$(build)
 # Every bundle is what its inputs give today.
 "$bake" status "$work"/build/bundles/*.h5 >/dev/null || fail "status says a fresh bundle is stale"
 
+# The CI check (pipelines/ci/check-bundles.sh): passes, then fails a budget, both with a report.
+check="$root/pipelines/ci/check-bundles.sh"
+FISSURE_BAKE=$bake bash "$check" "$work/report.xml" "$work"/build/bundles/*.h5 >/dev/null || fail "the CI check fails fresh bundles"
+grep -q 'failures="0" errors="0">' "$work/report.xml" || fail "the JUnit report of a passing check: $(head -3 "$work/report.xml")"
+set +e
+out=$(FISSURE_BAKE=$bake FISSURE_MAX_TILES=100 bash "$check" "$work/report.xml" "$work"/build/bundles/*.h5 2>&1)
+rc=$?
+set -e
+[ "$rc" = 1 ] || fail "a budget over its limit gave exit $rc: $out"
+grep -q "bunny.h5: INVALID" <<<"$out" || fail "the check does not name the bundle over budget: $out"
+grep -q 'name="budget:tiles">' "$work/report.xml" || fail "the budget is not in the JUnit report"
+
 # A broken mesh: the build fails, the last good bundle stays, and the next build retries.
 before=$(sha256sum "$work/build/bundles/bunny-open.h5")
 echo "f 1 2 999999" >>"$work/assets/meshes/bunny-5k-open.obj"
@@ -49,5 +61,10 @@ if out=$(build); then fail "a failed bake did not fail the build: $out"; fi
 grep -q "error: .*bunny-5k-open.obj" <<<"$out" || fail "the failure does not name the mesh: $out"
 [ "$before" = "$(sha256sum "$work/build/bundles/bunny-open.h5")" ] || fail "the failed bake replaced the bundle"
 "$bake" status "$work/build/bundles/bunny-open.h5" >/dev/null && fail "status calls the bundle of an edited mesh up to date"
+set +e
+FISSURE_BAKE=$bake bash "$check" "$work/report.xml" "$work"/build/bundles/*.h5 >/dev/null 2>&1
+rc=$?
+set -e
+[ "$rc" = 3 ] || fail "the CI check of a stale bundle gave exit $rc, not 3"
 if out=$(build); then fail "the failed bake was not retried: $out"; fi
 echo "cmake-project: all checks passed"
