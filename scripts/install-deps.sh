@@ -7,6 +7,7 @@
 # window without a display.
 # clang and libclang-rt-14-dev (libFuzzer): the `fuzz` preset's targets (fuzz/).
 # time (GNU time): scripts/fuzz-cli.py measures each run's peak memory with it.
+# snakemake: the batch-baking workflow (pipelines/batch) and its test.
 # libopenblas0-serial: CHOLMOD's dense kernels; serial so that it neither fights TBB's
 # threads nor changes results with the thread count (the reference BLAS is 3× slower).
 set -euo pipefail
@@ -23,6 +24,7 @@ packages=(
   libssl-dev
   libsuitesparse-dev libopenblas0-serial
   libbullet-dev
+  snakemake
 )
 
 missing=()
