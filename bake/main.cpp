@@ -183,13 +183,11 @@ formats::JunitSuite verify_one(const std::string& path, const formats::BundleBud
   }
   // -q: the failures and the verdict only, for build logs.
   const bool quiet = log_level() < LogLevel::Info;
-  bool passed = true;
   for (const auto& check : suite.cases) {
-    passed = passed && check.passed;
     if (quiet && check.passed) continue;
     std::printf("%s  %-28s %s\n", check.passed ? "PASS" : "FAIL", check.name.c_str(), check.detail.c_str());
   }
-  std::printf("%s: %s\n", path.c_str(), passed ? "all invariants hold" : "INVALID");
+  std::printf("%s: %s\n", path.c_str(), suite.passed() ? "all invariants hold" : "INVALID");
   return suite;
 }
 
@@ -200,9 +198,7 @@ int run_verify(const VerifyArgs& args) {
   bool passed = true;
   for (const std::string& path : args.bundles) {
     suites.push_back(verify_one(path, args.budgets()));
-    const auto& cases = suites.back().cases;
-    passed = passed && suites.back().error.empty() &&
-             std::all_of(cases.begin(), cases.end(), [](const formats::VerifyCheck& c) { return c.passed; });
+    passed = passed && suites.back().passed();
   }
   if (!args.junit.empty()) write_file_atomically(args.junit, formats::junit_xml(suites));
   if (args.bundles.size() > 1) {
