@@ -3,11 +3,17 @@
 // uploaded per frame, and the physics step, which must not grow with the triangles.
 //
 // usage: fissure_render_bench [--size WxH] [--frames N] [--backend osmesa|egl]
-//                             [--subdivisions K] [--shared DIR]
+//                             [--subdivisions K] [--shared DIR] [--cage-sweep N,N,…]
+//                             [--no-tessellation] [--csv DIR]
 //   --subdivisions K  also the bunny split 1→4 up to K times (default 2: 5k, 20k, 80k triangles)
-//   --shared DIR      the shared data folder, for the 10,024-tet cage (optional)
-// Then the cost of tessellated relief against its level cap (every tet apart, every
-// face open: the bunny-5k in the 987-tet cage fully shattered).
+//   --shared DIR      also the 10,024-tet cage (the name is older than the cage's copy in data/)
+//   --cage-sweep LIST also the bunny-5k alone in each data/cages/bunny-5k-cage-N named
+//                     (thesis Fig. 21 and Table II: replication and cost against tets)
+//   --csv DIR         also write every row to DIR/draw.csv (pipelines/tradeoffs plots it)
+// Each cage in the first table is drawn with every mesh (thesis Fig. 22: physics flat with
+// triangles). Then, unless --no-tessellation, the cost of tessellated relief against its
+// level cap (every tet apart, every face open: the bunny-5k in the 987-tet cage fully
+// shattered).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -21,6 +27,7 @@
 #include "player/app/frame_output.h"
 #include "player/app/scene_view.h"
 #include "player/render/context.h"
+#include "tests/support/csv_table.h"
 #include "tests/support/mapped_mesh.h"
 #include "tests/support/procedural.h"
 #include "tests/support/sim_fixtures.h"
@@ -38,8 +45,25 @@ double median(std::vector<double> v) {
 struct Options {
   int width = 1280, height = 720, frames = 20, subdivisions = 2;
   render::Backend backend = render::Backend::OSMesa;
-  std::filesystem::path shared;
+  std::filesystem::path shared, csv;
+  std::vector<std::string> cage_sweep;  ///< tet counts naming data/cages/bunny-5k-cage-N
+  bool tessellation = true;
 };
+
+constexpr const char* kUsage =
+    "usage: fissure_render_bench [--size WxH] [--frames N] [--backend osmesa|egl] [--subdivisions K] [--shared DIR] "
+    "[--cage-sweep N,N,...] [--no-tessellation] [--csv DIR]";
+
+std::vector<std::string> split_list(const std::string& list) {
+  std::vector<std::string> items;
+  std::size_t from = 0;
+  while (from <= list.size()) {
+    const std::size_t comma = std::min(list.find(',', from), list.size());
+    if (comma > from) items.push_back(list.substr(from, comma - from));
+    from = comma + 1;
+  }
+  return items;
+}
 
 Options parse(int argc, char** argv) {
   Options o;
@@ -56,9 +80,14 @@ Options parse(int argc, char** argv) {
       o.subdivisions = std::clamp(std::stoi(argv[++i]), 0, 4);
     } else if (arg == "--shared" && has_value) {
       o.shared = argv[++i];
+    } else if (arg == "--cage-sweep" && has_value) {
+      o.cage_sweep = split_list(argv[++i]);
+    } else if (arg == "--csv" && has_value) {
+      o.csv = argv[++i];
+    } else if (arg == "--no-tessellation") {
+      o.tessellation = false;
     } else {
-      throw Error("unknown argument " + arg,
-                  "usage: fissure_render_bench [--size WxH] [--frames N] [--backend osmesa|egl] [--subdivisions K] [--shared DIR]");
+      throw Error("unknown argument " + arg, kUsage);
     }
   }
   return o;
@@ -160,34 +189,48 @@ void measure_tessellation(const SurfaceMesh& mesh, const TetMesh& cage, const Op
   }
 }
 
+TetMesh sample_cage(const std::string& tets) {
+  return formats::read_cage(std::filesystem::path(FISSURE_BENCH_DATA_DIR) / "cages" / ("bunny-5k-cage-" + tets + ".node")).mesh;
+}
+
+void print_row(const Row& r, testing::CsvTable& csv) {
+  std::printf("| %zu | %zu | %zu | %.2f | %.2f | %.1f | %.1f | %.2f× | %zu |\n", r.triangles, r.tets, r.instances, r.bake_s,
+              r.step_ms, r.embedded_ms, r.plain_ms, r.embedded_ms / r.plain_ms, r.upload_bytes);
+  std::fflush(stdout);
+  csv.row({r.triangles, r.tets, r.instances, r.bake_s, r.step_ms, r.embedded_ms, r.plain_ms, r.upload_bytes});
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   try {
     const Options o = parse(argc, argv);
-    const std::filesystem::path data = FISSURE_BENCH_DATA_DIR;
-    std::vector<std::pair<std::string, TetMesh>> cages{
-        {"987", formats::read_cage(data / "cages" / "bunny-5k-cage-987.node").mesh}};
+    std::vector<std::pair<std::string, TetMesh>> cages{{"987", sample_cage("987")}};
     if (!o.shared.empty()) {
       cages.emplace_back("10024", formats::read_cage(o.shared / "cages" / "bunny-5k-cage-10024.node").mesh);
     }
-    std::vector<SurfaceMesh> meshes{bake::import_render_mesh(data / "meshes" / "bunny-5k.obj").mesh};
+    std::vector<SurfaceMesh> meshes{
+        bake::import_render_mesh(std::filesystem::path(FISSURE_BENCH_DATA_DIR) / "meshes" / "bunny-5k.obj").mesh};
     for (int k = 0; k < o.subdivisions; ++k) meshes.push_back(testing::subdivide(meshes.back()));
     const auto context = render::create_headless_context(o.backend);
     std::printf("%s, %dx%d, median of %d frames; physics: CG (lagged Cholesky, 1e-4), median of 20 steps\n\n",
                 context->description().c_str(), o.width, o.height, o.frames);
     std::printf("| triangles | tets | instances | bake s | physics ms/step | embedded draw ms | plain draw ms | embedded ÷ plain | upload bytes/frame |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|\n");
+    testing::CsvTable csv(o.csv, "draw", {"triangles", "tets", "instances", "bake_s", "physics_ms_per_step",
+                                          "embedded_draw_ms", "plain_draw_ms", "upload_bytes_per_frame"});
     for (const auto& [name, cage] : cages) {
       for (const SurfaceMesh& mesh : meshes) {
         render::Renderer renderer(o.width, o.height);  // one per case: only its own bodies
-        const Row r = measure(mesh, cage, o, renderer);
-        std::printf("| %zu | %zu | %zu | %.2f | %.2f | %.1f | %.1f | %.2f× | %zu |\n", r.triangles, r.tets, r.instances,
-                    r.bake_s, r.step_ms, r.embedded_ms, r.plain_ms, r.embedded_ms / r.plain_ms, r.upload_bytes);
-        std::fflush(stdout);
+        print_row(measure(mesh, cage, o, renderer), csv);
       }
     }
-    measure_tessellation(meshes.front(), cages.front().second, o);
+    for (const std::string& tets : o.cage_sweep) {
+      if (std::any_of(cages.begin(), cages.end(), [&](const auto& c) { return c.first == tets; })) continue;
+      render::Renderer renderer(o.width, o.height);
+      print_row(measure(meshes.front(), sample_cage(tets), o, renderer), csv);
+    }
+    if (o.tessellation) measure_tessellation(meshes.front(), cages.front().second, o);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

@@ -1,9 +1,11 @@
 // Trade-study sweeps for bake stage 2 (walls and collision spheres): what each knob
 // costs and what it buys. Prints Markdown tables for BENCHMARKS.md.
 //
-//   fissure_stage2_sweep [--mesh M] [--cage C] [--threads N]
+//   fissure_stage2_sweep [--mesh M] [--cage C] [--threads N] [--csv DIR] [--quick]
 //
-// Defaults: the repository's bunny-5k in its 987-tet cage.
+// Defaults: the repository's bunny-5k in its 987-tet cage. --csv also writes the
+// figures to DIR/walls.csv and DIR/spheres-bake.csv (pipelines/tradeoffs plots them);
+// --quick sweeps two points per knob, for CI.
 #include <tbb/global_control.h>
 
 #include <chrono>
@@ -21,6 +23,7 @@
 #include "formats/bundle_checks.h"
 #include "formats/bundle_inspect.h"
 #include "formats/cage_io.h"
+#include "tests/support/csv_table.h"
 
 namespace {
 
@@ -36,7 +39,15 @@ std::uint64_t stored_bytes(const fs::path& file, const std::string& group) {
   return total;
 }
 
-void wall_sweep(const SurfaceMesh& mesh, const TetMesh& cage, const fs::path& scratch) {
+struct Plan {
+  std::vector<std::uint32_t> wall_resolutions{8, 16, 32, 64, 128, 256};
+  std::vector<double> radius_scales{4.0, 2.0, 1.0, 0.5, 0.25};
+  fs::path csv;  ///< empty: Markdown only
+
+  static Plan quick() { return {{8, 32, 64}, {1.0, 0.5}, {}}; }
+};
+
+void wall_sweep(const SurfaceMesh& mesh, const TetMesh& cage, const fs::path& scratch, const Plan& plan) {
   std::printf("\n### Wall resolution: coverage error, time, size\n\n");
   std::printf("Coverage error: Σ over crossing faces of |tile texel count × texel area − exact inside area|, relative to "
               "the total inside area of those faces (texel centres inside the face only).\n\n");
@@ -48,7 +59,7 @@ void wall_sweep(const SurfaceMesh& mesh, const TetMesh& cage, const fs::path& sc
     double error, seconds, mib;
   };
   std::vector<Row> rows;
-  for (const std::uint32_t res : {8u, 16u, 32u, 64u, 128u, 256u}) {
+  for (const std::uint32_t res : plan.wall_resolutions) {
     bake::BakeOptions options;
     options.collision = false;
     options.wall.resolution = res;
@@ -67,8 +78,10 @@ void wall_sweep(const SurfaceMesh& mesh, const TetMesh& cage, const fs::path& sc
     if (res == 64) baseline_s = stats.walls_s + stats.regions_s;
     fs::remove(file);
   }
+  testing::CsvTable csv(plan.csv, "walls", {"resolution", "tiles", "coverage_error", "walls_stage_s", "walls_stored_mib"});
   for (const Row& r : rows) {
     std::printf("| %u² | %zu | %.2e | %.3f | %.2f | %.2f× |\n", r.res, r.tiles, r.error, r.seconds, r.mib, r.seconds / baseline_s);
+    csv.row({r.res, r.tiles, r.error, r.seconds, r.mib});
   }
 }
 
@@ -103,13 +116,15 @@ struct SphereGrid {
   }
 };
 
-void sphere_sweep(const SurfaceMesh& mesh, const TetMesh& cage) {
+void sphere_sweep(const SurfaceMesh& mesh, const TetMesh& cage, const Plan& plan) {
   const double base = bake::default_sphere_radius(cage);
   std::printf("\n### Collision sphere radius: count, surface coverage, time\n\n");
   std::printf("Gap: distance from each render vertex to the nearest sphere surface (negative: inside a sphere), "
               "in units of the default radius %.4g.\n\n", base);
   std::printf("| radius / default | spheres | culled | tets halved | mean gap | max gap | collision stage s |\n|---|---|---|---|---|---|---|\n");
-  for (const double scale : {4.0, 2.0, 1.0, 0.5, 0.25}) {
+  testing::CsvTable csv(plan.csv, "spheres-bake", {"radius_over_default", "default_radius_m", "spheres", "culled", "tets_halved",
+                                                  "mean_gap_over_default", "max_gap_over_default", "collision_stage_s"});
+  for (const double scale : plan.radius_scales) {
     bake::BakeOptions options;
     options.walls = false;
     options.spheres.radius = scale * base;
@@ -137,6 +152,8 @@ void sphere_sweep(const SurfaceMesh& mesh, const TetMesh& cage) {
     std::printf("| %.2f | %zu | %zu | %zu | %.3f | %.3f | %.3f |\n", scale, b.collision->sphere_tet.size(),
                 stats.collision.culled, stats.collision.tets_halved, sum / static_cast<double>(mesh.vertex_count()) / base,
                 worst / base, stats.collision_s);
+    csv.row({scale, base, b.collision->sphere_tet.size(), stats.collision.culled, stats.collision.tets_halved,
+             sum / static_cast<double>(mesh.vertex_count()) / base, worst / base, stats.collision_s});
   }
 }
 
@@ -146,12 +163,31 @@ int main(int argc, char** argv) {
   fs::path mesh_path = fs::path(FISSURE_BENCH_DATA_DIR) / "meshes" / "bunny-5k.obj";
   fs::path cage_path = fs::path(FISSURE_BENCH_DATA_DIR) / "cages" / "bunny-5k-cage-987.node";
   int threads = 0;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  Plan plan;
+  fs::path csv;
+  for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
-    if (arg == "--mesh") mesh_path = argv[i + 1];
-    else if (arg == "--cage") cage_path = argv[i + 1];
-    else if (arg == "--threads") threads = std::stoi(argv[i + 1]);
+    if (arg == "--quick") {
+      plan = Plan::quick();
+      continue;
+    }
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "error: %s needs a value\nusage: %s [--mesh M] [--cage C] [--threads N] [--csv DIR] [--quick]\n",
+                   arg.c_str(), argv[0]);
+      return 1;
+    }
+    const std::string value = argv[++i];
+    if (arg == "--mesh") mesh_path = value;
+    else if (arg == "--cage") cage_path = value;
+    else if (arg == "--threads") threads = std::stoi(value);
+    else if (arg == "--csv") csv = value;
+    else {
+      std::fprintf(stderr, "error: unknown option %s\nusage: %s [--mesh M] [--cage C] [--threads N] [--csv DIR] [--quick]\n",
+                   arg.c_str(), argv[0]);
+      return 1;
+    }
   }
+  plan.csv = csv;
   set_log_level(LogLevel::Quiet);
   std::unique_ptr<tbb::global_control> limit;
   if (threads > 0) {
@@ -164,8 +200,8 @@ int main(int argc, char** argv) {
                 mesh.triangle_count(), cage.tet_count());
     const fs::path scratch = fs::temp_directory_path() / ("fissure-sweep-" + std::to_string(::getpid()));
     fs::create_directories(scratch);
-    wall_sweep(mesh, cage, scratch);
-    sphere_sweep(mesh, cage);
+    wall_sweep(mesh, cage, scratch, plan);
+    sphere_sweep(mesh, cage, plan);
     fs::remove_all(scratch);
   } catch (const Error& e) {
     std::fputs(format_error(e).c_str(), stderr);

@@ -9,6 +9,7 @@
 #include "player/sim/implicit_integrator.h"
 #include "tests/support/procedural.h"
 #include "tests/support/sim_fixtures.h"
+#include "tests/support/spinning_beam.h"
 
 namespace fissure::sim {
 namespace {
@@ -177,23 +178,7 @@ TEST(ExactStiffness, EvaluateUsesTheProjectedExactStiffness) {
 
 // --- Time stepping ---------------------------------------------------------------
 
-struct Beam {
-  TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(2.0, 0.25, 0.25), 8, 1, 1);
-  Vec3 centre = cage.rest_positions.rowwise().mean();
-
-  /// A free beam stretched by `stretch` along x and spinning at ω about z through its centre.
-  std::unique_ptr<ImplicitIntegrator> make(double stretch, double omega, double youngs = 1e5) const {
-    auto body = std::make_unique<ImplicitIntegrator>(cage.rest_positions, cage.tets,
-                                                     Material{.density = 1000, .youngs_modulus = youngs});
-    Matrix3Xd x = cage.rest_positions;
-    x.row(0) = (centre.x() + stretch * (cage.rest_positions.row(0).array() - centre.x())).matrix();
-    body->set_positions(x);
-    Matrix3Xd v(3, body->node_count());
-    for (Index n = 0; n < body->node_count(); ++n) v.col(n) = Vec3(0, 0, omega).cross(x.col(n) - centre);
-    body->set_velocities(v);
-    return body;
-  }
-};
+using Beam = testing::SpinningBeam;
 
 TEST(ExactStiffness, ImplicitStepIsStableForASpinningStretchedBeamAtLargeSteps) {
   const Beam beam;
@@ -245,46 +230,6 @@ TEST(ExactStiffness, AStiffSpinningBodyAtLargeStepsStaysUnstretchedOnlyWithTheEx
   EXPECT_LT(strain[1], 1e-6);
 }
 
-struct Outcome {
-  double energy_ratio, momentum_ratio, tip_error;
-};
-
-/// Spins the beam for `duration` seconds at step `dt` with the given model.
-std::pair<Vec3, Vec3> spin(const Beam& beam, StiffnessModel model, double dt, double duration, double& energy_ratio,
-                           double& momentum_ratio) {
-  auto body = beam.make(1.0, 10.0, 1e6);
-  // A little initial bending so the elastic forces are not zero.
-  testing::change_velocities(*body, [&](Matrix3Xd& v) {
-    for (Index n = 0; n < body->node_count(); ++n) {
-      const double s = (beam.cage.rest_positions(0, n) - beam.centre.x()) / 1.0;
-      v(1, n) += 2.0 * s * s;
-    }
-  });
-  StepSettings settings;
-  settings.dt = dt;
-  settings.gravity.setZero();
-  settings.stiffness = model;
-  const double e0 = body->energy();
-  const double l0 = body->angular_momentum().z();
-  const auto steps = static_cast<int>(std::lround(duration / dt));
-  for (int i = 0; i < steps; ++i) {
-    if (body->step(settings) != SolveStatus::Converged) break;
-  }
-  energy_ratio = body->energy() / e0;
-  momentum_ratio = body->angular_momentum().z() / l0;
-  // Tip: the mean of the nodes at x = 2 and x = 0, relative to the centre of mass.
-  Vec3 tip = Vec3::Zero(), tail = Vec3::Zero();
-  int count = 0;
-  for (Index n = 0; n < body->node_count(); ++n) {
-    if (beam.cage.rest_positions(0, n) == 2.0) {
-      tip += body->positions().col(n);
-      ++count;
-    }
-    if (beam.cage.rest_positions(0, n) == 0.0) tail += body->positions().col(n);
-  }
-  return {tip / count, tail / count};
-}
-
 TEST(ExactStiffness, MeasuredTradeOfExactVersusWarpedOnAFastSpinningBeam) {
   // A free beam (2 m, E = 1 MPa) spinning at 10 rad/s about z, with some bending, for
   // 0.5 s. The true motion keeps E and L; the reference for the tip is the exact model
@@ -301,18 +246,18 @@ TEST(ExactStiffness, MeasuredTradeOfExactVersusWarpedOnAFastSpinningBeam) {
   // (never gains energy), not accuracy for fast spins.
   const Beam beam;
   const double duration = 0.5;
-  double e_ref = 0, l_ref = 0;
-  const auto [tip_ref, tail_ref] = spin(beam, StiffnessModel::Exact, 2.5e-4, duration, e_ref, l_ref);
-  std::printf("spinning beam, 10 rad/s for %.1f s, reference dt=2.5e-4: E/E0 %.4f, L/L0 %.4f\n", duration, e_ref, l_ref);
+  const testing::SpinOutcome reference = testing::spin(beam, StiffnessModel::Exact, 2.5e-4, duration);
+  std::printf("spinning beam, 10 rad/s for %.1f s, reference dt=2.5e-4: E/E0 %.4f, L/L0 %.4f\n", duration,
+              reference.energy_ratio, reference.momentum_ratio);
   for (const double dt : {0.05, 0.01}) {
     for (const StiffnessModel model : {StiffnessModel::Warped, StiffnessModel::Exact}) {
-      double e = 0, l = 0;
-      const auto [tip, tail] = spin(beam, model, dt, duration, e, l);
+      const testing::SpinOutcome run = testing::spin(beam, model, dt, duration);
       std::printf("  dt=%-5g %-6s: E/E0 %.4f, L/L0 %.4f, tip error %.4f m\n", dt,
-                  model == StiffnessModel::Warped ? "warped" : "exact", e, l, (tip - tip_ref).norm());
-      EXPECT_TRUE(tip.allFinite() && tail.allFinite());
+                  model == StiffnessModel::Warped ? "warped" : "exact", run.energy_ratio, run.momentum_ratio,
+                  (run.tip - reference.tip).norm());
+      EXPECT_TRUE(run.tip.allFinite() && run.tail.allFinite());
       if (model == StiffnessModel::Exact) {
-        EXPECT_LE(e, 1.0);  // the exact model never gains energy
+        EXPECT_LE(run.energy_ratio, 1.0);  // the exact model never gains energy
       }
     }
   }
