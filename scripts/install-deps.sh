@@ -8,6 +8,7 @@
 # clang and libclang-rt-14-dev (libFuzzer): the `fuzz` preset's targets (fuzz/).
 # time (GNU time): scripts/fuzz-cli.py measures each run's peak memory with it.
 # snakemake: the batch-baking workflow (pipelines/batch) and its test.
+# python3-matplotlib: the trade-study's plots (pipelines/tradeoffs) and its test.
 # libopenblas0-serial: CHOLMOD's dense kernels; serial so that it neither fights TBB's
 # threads nor changes results with the thread count (the reference BLAS is 3× slower).
 set -euo pipefail
@@ -24,7 +25,7 @@ packages=(
   libssl-dev
   libsuitesparse-dev libopenblas0-serial
   libbullet-dev
-  snakemake
+  snakemake python3-matplotlib
 )
 
 missing=()

@@ -1,0 +1,234 @@
+"""The trade-study's plots: each reads the CSV files of one sweep (sweeps.py) and makes
+one figure. A plot whose CSV files are missing is skipped, so a partial run still plots
+what it measured."""
+
+import csv
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # no display: the plots are files
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
+
+WARPED, EXACT = "tab:blue", "tab:red"
+DEFAULTS = "0.5"  # the grey of the lines marking the player's and the bake's defaults
+
+# Thesis Table II: total (triangle, tet) instances of the 5,000-triangle bunny in cages of
+# 10 … 100 tets. Our cages are not the thesis's (data/README.md), so the sizes differ a
+# little; the trend is what compares.
+THESIS_TABLE_II = ((10, 5715), (20, 6231), (31, 6629), (41, 6880), (50, 6907), (60, 7057), (72, 7328),
+                   (82, 7472), (91, 7472), (100, 7586))
+THESIS_TRIANGLES = 5000
+
+
+def read(folder: Path, name: str) -> list:
+    """The rows of folder/name as dicts of strings, or [] when the file is absent."""
+    path = folder / name
+    if not path.is_file():
+        return []
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def column(rows: list, key: str) -> list:
+    return [float(r[key]) for r in rows]
+
+
+def figure(columns: int, title: str):
+    fig, axes = plt.subplots(1, columns, figsize=(5.2 * columns, 4.2), squeeze=False)
+    fig.suptitle(title)
+    return fig, axes[0]
+
+
+def save(fig, path: Path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def ticks_at(ax, values, text) -> None:
+    """x ticks at the swept values only, written as `text(value)`: a log axis's own ticks
+    (5×10⁻¹) say less than the values themselves."""
+    values = sorted(set(values))
+    ax.set_xticks(values, [text(v) for v in values])
+    ax.minorticks_off()
+
+
+def mark_default(ax, x: float, label: str = "default") -> None:
+    ax.axvline(x, color=DEFAULTS, linestyle=":", linewidth=1)
+    ax.annotate(label, (x, 1), xycoords=("data", "axes fraction"), xytext=(3, -12), textcoords="offset points",
+                color=DEFAULTS, fontsize=8)
+
+
+def walls(folder: Path):
+    rows = read(folder, "walls.csv")
+    if not rows:
+        return None
+    res = column(rows, "resolution")
+    fig, (error, cost) = figure(2, "Wall tile resolution (bunny-5k, 987-tet cage)")
+    error.loglog(res, column(rows, "coverage_error"), "o-")
+    error.set(xlabel="tile resolution (texels)", ylabel="coverage error (relative area)", title="what it buys")
+    cost.loglog(res, column(rows, "walls_stage_s"), "o-", label="bake: walls stage, s")
+    cost.loglog(res, column(rows, "walls_stored_mib"), "s-", label="bundle: /walls, MiB")
+    cost.set(xlabel="tile resolution (texels)", title="what it costs")
+    cost.legend()
+    for ax in (error, cost):
+        ticks_at(ax, res, lambda r: f"{int(r)}²")
+        mark_default(ax, 64)
+    return "walls.png", fig
+
+
+def contacts(folder: Path):
+    bake_rows = read(folder, "spheres-bake.csv")
+    player = [r for r in read(folder, "contacts.csv") if r["stopped"] == "0"]
+    spheres = [r for r in player if r["collision_points"] == "spheres"]
+    exact = [r for r in player if r["collision_points"] == "vertices"]
+    if not bake_rows and not spheres:
+        return None
+    fig, (count, depth, cost) = figure(3, "Collision sphere radius (bunny-5k, 987-tet cage; ×1 = a fifth of the median cage edge)")
+    if bake_rows:
+        count.semilogx(column(bake_rows, "radius_over_default"), column(bake_rows, "spheres"), "o-")
+    count.set(xlabel="target radius ÷ default", ylabel="spheres", title="spheres the bake makes")
+    count.set_ylim(bottom=0)
+    if spheres:
+        x = column(spheres, "radius_over_default")
+        depth.semilogx(x, [1e3 * v for v in column(spheres, "vertex_penetration_max_m")], "o-", label="spheres")
+        cost.semilogx(x, column(spheres, "collisions_ms_mean"), "o-", label="spheres")
+    if exact:
+        depth.axhline(1e3 * float(exact[0]["vertex_penetration_max_m"]), color=EXACT, linestyle="--",
+                      label="every render vertex (exact)")
+        cost.axhline(float(exact[0]["collisions_ms_mean"]), color=EXACT, linestyle="--",
+                     label="every render vertex (exact)")
+    depth.set(xlabel="target radius ÷ default", ylabel="mm", title="deepest render vertex in an obstacle")
+    depth.set_ylim(bottom=0)
+    cost.set(xlabel="target radius ÷ default", ylabel="ms per step (mean, 1 thread)", title="collision phase")
+    factors = column(bake_rows, "radius_over_default") + column(spheres, "radius_over_default")
+    for ax in (count, depth, cost):
+        ticks_at(ax, factors, lambda f: f"×{f:g}")
+        mark_default(ax, 1.0)
+    depth.legend()
+    cost.legend()
+    return "contacts.png", fig
+
+
+def cages(folder: Path):
+    rows = [r for r in read(folder, "draw.csv") if r["triangles"] == "5000"]
+    if not rows:
+        return None
+    rows.sort(key=lambda r: float(r["tets"]))
+    tets = column(rows, "tets")
+    fig, (replication, step, draw) = figure(3, "Cage tet count, bunny-5k (thesis Table II, Fig. 21)")
+    per_triangle = [i / t for i, t in zip(column(rows, "instances"), column(rows, "triangles"))]
+    replication.semilogx(tets, per_triangle, "o-", label="ours")
+    replication.semilogx([t for t, _ in THESIS_TABLE_II], [n / THESIS_TRIANGLES for _, n in THESIS_TABLE_II], "x",
+                         color="k", label="thesis Table II")
+    replication.set(xlabel="cage tets", ylabel="instances per triangle", title="replication")
+    replication.legend()
+    step.loglog(tets, column(rows, "physics_ms_per_step"), "o-")
+    step.set(xlabel="cage tets", ylabel="ms per step (median)", title="physics step (no contacts)")
+    draw.semilogx(tets, column(rows, "embedded_draw_ms"), "o-", label="embedded (clipped instances)")
+    draw.semilogx(tets, column(rows, "plain_draw_ms"), "s--", label="plain mesh, same triangles")
+    draw.set(xlabel="cage tets", ylabel="ms per frame (median)", title="draw (llvmpipe)")
+    draw.set_ylim(bottom=0)
+    draw.legend()
+    return "cages.png", fig
+
+
+def triangles(folder: Path):
+    rows = read(folder, "draw.csv")
+    by_cage = {}
+    for r in rows:
+        by_cage.setdefault(r["tets"], []).append(r)
+    by_cage = {t: sorted(rs, key=lambda r: float(r["triangles"])) for t, rs in by_cage.items() if len(rs) > 1}
+    if not by_cage:
+        return None
+    fig, (draw, step) = figure(2, "Triangle count with the cage fixed (thesis Fig. 22)")
+    for tets, rs in sorted(by_cage.items(), key=lambda kv: float(kv[0])):
+        tris = column(rs, "triangles")
+        line, = draw.semilogx(tris, column(rs, "embedded_draw_ms"), "o-", label=f"embedded, {tets} tets")
+        draw.semilogx(tris, column(rs, "plain_draw_ms"), "s--", color=line.get_color(), label=f"plain, {tets} tets")
+        step.semilogx(tris, column(rs, "physics_ms_per_step"), "o-", label=f"{tets} tets")
+    draw.set(xlabel="render triangles", ylabel="ms per frame (median)", title="draw (llvmpipe)")
+    step.set(xlabel="render triangles", ylabel="ms per step (median)", title="physics: flat in triangles")
+    for ax in (draw, step):
+        ax.set_ylim(bottom=0)
+        ax.legend()
+    return "triangles.png", fig
+
+
+def label_points(ax, xs, ys, labels) -> None:
+    for x, y, text in zip(xs, ys, labels):
+        ax.annotate(text, (x, y), xytext=(4, 3), textcoords="offset points", fontsize=7)
+
+
+def dt(folder: Path):
+    rows = read(folder, "dt.csv")
+    cases = sorted({r["case"] for r in rows})
+    if not cases:
+        return None
+    fig, axes = figure(len(cases), "Time step: error against a small-dt reference vs cost (direct solver, 1 thread)")
+    for ax, case in zip(axes, cases):
+        for model, colour in (("warped", WARPED), ("exact", EXACT)):
+            rs = [r for r in rows if r["case"] == case and r["stiffness"] == model]
+            x, y = column(rs, "wall_s_per_simulated_s"), column(rs, "rms_error_relative")
+            ax.loglog(x, y, "o-", color=colour, label=f"{model} stiffness")
+            label_points(ax, x, y, [f"1/{round(1 / float(r['dt_s']))}" for r in rs])
+        ax.set(xlabel="wall s per simulated s", ylabel="RMS node error ÷ RMS displacement", title=case)
+        ax.legend()
+    return "dt.png", fig
+
+
+def tolerance(folder: Path):
+    rows = read(folder, "tolerance.csv")
+    cases = sorted({r["case"] for r in rows})
+    if not cases:
+        return None
+    fig, axes = figure(len(cases), "CG tolerance at dt = 1/240 s: what it adds to the step's error vs cost (1 thread)")
+    for ax, case in zip(axes, cases):
+        for solver, marker in (("cg-jacobi", "o-"), ("cg-lagged-cholesky", "s-")):
+            rs = [r for r in rows if r["case"] == case and r["solver"] == solver]
+            x, y = column(rs, "wall_s_per_simulated_s"), column(rs, "error_vs_direct")
+            ax.loglog(x, y, marker, label=solver.replace("cg-", "CG, ").replace("-", " "))
+            label_points(ax, x, y, [f"{float(r['tolerance']):.0e}" for r in rs])
+        direct = [r for r in rows if r["case"] == case and r["solver"] == "direct"]
+        if direct:
+            ax.axvline(float(direct[0]["wall_s_per_simulated_s"]), color="k", linestyle="--", label="direct solver")
+        ax.set(xlabel="wall s per simulated s", ylabel="RMS error against the direct solve, same dt", title=case)
+        ax.legend()
+    return "tolerance.png", fig
+
+
+def spin(folder: Path):
+    rows = read(folder, "spin.csv")
+    if not rows:
+        return None
+    fig, (energy, tip) = figure(2, "Exact vs warped stiffness: a free beam spinning at 10 rad/s for 0.5 s")
+    for model, colour in (("warped", WARPED), ("exact", EXACT)):
+        rs = sorted((r for r in rows if r["stiffness"] == model), key=lambda r: float(r["rad_per_step"]))
+        x = column(rs, "rad_per_step")
+        energy.semilogx(x, column(rs, "peak_energy_ratio"), "o-", color=colour, label=f"{model}: peak")
+        energy.semilogx(x, column(rs, "final_energy_ratio"), "s--", color=colour, label=f"{model}: at the end")
+        tip.loglog(x, column(rs, "tip_error_m"), "o-", color=colour, label=model)
+    for ax in (energy, tip):
+        ticks_at(ax, column(rows, "rad_per_step"), lambda r: f"{r:g}")
+    energy.axhline(1.0, color=DEFAULTS, linewidth=1)
+    energy.set(xlabel="rotation per step (rad)", ylabel="E / E₀", title="energy (the true motion keeps E₀)")
+    tip.set(xlabel="rotation per step (rad)", ylabel="m", title="tip position against the reference")
+    energy.legend()
+    tip.legend()
+    return "spin.png", fig
+
+
+PLOTS = (walls, contacts, cages, triangles, dt, tolerance, spin)
+
+
+def plot_all(data: Path, out: Path) -> list:
+    """Every plot whose CSV files are in `data`, written to `out`; returns the PNG names."""
+    written = []
+    for plot in PLOTS:
+        made = plot(data)
+        if made is not None:
+            name, fig = made
+            save(fig, out / name)
+            written.append(name)
+    return written

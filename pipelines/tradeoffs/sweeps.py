@@ -1,0 +1,232 @@
+"""The measurements of the trade-study: each sweep runs Fissure's programs and leaves CSV
+files (and the programs' own Markdown tables) in a folder. Plotting is plots.py's job.
+
+Four sweeps, each named by what it varies:
+  bake      wall resolution and bake-side sphere radius (tests/bench/fissure_stage2_sweep)
+  draw      cage tet count and triangle count against replication, step and draw time
+            (tests/bench/fissure_render_bench)
+  solver    dt, CG tolerance, exact against warped stiffness (tests/bench/fissure_tradeoff_sweep)
+  contacts  sphere radius in the player against the exact every-vertex mode (fissure-bake
+            and fissure-player, through their command lines)
+"""
+
+import csv
+import json
+import re
+import statistics
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+
+class SweepError(Exception):
+    """A sweep could not finish; the message says which program failed and where its log is."""
+
+
+@dataclass(frozen=True)
+class Tools:
+    """Where the programs are: a build folder (release preset) and the repository."""
+
+    build: Path
+    repo: Path
+
+    def bench(self, name: str) -> Path:
+        return self.build / "tests" / "bench" / name
+
+    @property
+    def bake(self) -> Path:
+        return self.build / "bake" / "fissure-bake"
+
+    @property
+    def player(self) -> Path:
+        return self.build / "player" / "app" / "fissure-player"
+
+    def missing(self, sweep: str) -> list:
+        needs = {
+            "bake": [self.bench("fissure_stage2_sweep")],
+            "draw": [self.bench("fissure_render_bench")],
+            "solver": [self.bench("fissure_tradeoff_sweep")],
+            "contacts": [self.bake, self.player],
+        }[sweep]
+        return [p for p in needs if not p.is_file()]
+
+
+def run_logged(command: list, stdout: Path, log: Path, timeout: float = None) -> None:
+    """Runs `command` with stdout to `stdout` and stderr to `log` (appended, after the
+    command line); SweepError if it fails or passes `timeout` seconds."""
+    with open(stdout, "w") as out, open(log, "a") as err:
+        err.write("$ " + " ".join(str(c) for c in command) + "\n")
+        err.flush()
+        try:
+            status = subprocess.run([str(c) for c in command], stdout=out, stderr=err, timeout=timeout).returncode
+        except subprocess.TimeoutExpired:
+            raise SweepError(f"{Path(command[0]).name} ran past {timeout:.0f} s")
+    if status != 0:
+        raise SweepError(f"{Path(command[0]).name} exited with {status}")
+
+
+# --- bake, draw, solver: the benchmark programs write their own CSV files -------------
+
+# The cages of data/cages, bunny-5k-cage-N: N = 10 … 100 are the thesis's Table II sizes.
+# (987 and 10,024 are drawn with every mesh as well; see bench_arguments.)
+FULL_CAGES = "10,20,29,38,51,58,68,80,89,100"
+
+
+def bench_arguments(sweep: str, quick: bool, repo: Path) -> tuple:
+    """(program, arguments) of a benchmark sweep, full or quick (the CI's reduced sweep)."""
+    if sweep == "bake":
+        return "fissure_stage2_sweep", ["--quick"] if quick else []
+    if sweep == "draw":
+        if quick:
+            return "fissure_render_bench", ["--size", "480x270", "--frames", "3", "--subdivisions", "1",
+                                            "--cage-sweep", "10,100", "--no-tessellation"]
+        # --shared names the folder holding cages/bunny-5k-cage-10024: with it, the 10,024-tet
+        # cage is drawn with every mesh too (Fig. 22 at two cage sizes).
+        return "fissure_render_bench", ["--frames", "10", "--subdivisions", "2", "--shared", repo / "data",
+                                        "--cage-sweep", FULL_CAGES, "--no-tessellation"]
+    if sweep == "solver":
+        # One thread, so the costs per simulated second compare across machines.
+        return "fissure_tradeoff_sweep", ["--threads", "1"] + (["--quick"] if quick else [])
+    raise ValueError(sweep)
+
+
+def run_bench(tools: Tools, sweep: str, quick: bool, staging: Path) -> None:
+    program, arguments = bench_arguments(sweep, quick, tools.repo)
+    run_logged([tools.bench(program), *arguments, "--csv", staging], staging / f"{sweep}.md", staging / f"{sweep}.log")
+
+
+# --- contacts: sphere radius in the player --------------------------------------------
+
+MESH = "data/meshes/bunny-5k.obj"
+CAGE = "data/cages/bunny-5k-cage-987.node"
+BASE_SCENE = "data/scenes/bunny-drop.toml"
+
+
+@dataclass(frozen=True)
+class ContactPlan:
+    radius_factors: tuple  # multiples of the bake's default radius
+    steps: int             # bunny-drop's ball is launched at step 120 and hits at about 132
+    time_limit_s: float    # a run past this is recorded as stopped, not measured
+
+
+FULL_CONTACTS = ContactPlan((0.25, 0.5, 1.0, 2.0, 4.0), 480, 180.0)
+QUICK_CONTACTS = ContactPlan((0.5, 1.0), 150, 120.0)
+
+
+def scene_with(base: str, bundle: str, collision_mode: str) -> str:
+    """bunny-drop.toml with its one bundle replaced and these [features]: the collision mode
+    under test, fracture off (every run keeps the same topology, so only the collision
+    points differ) and one thread (collision times compare across runs)."""
+    if len(re.findall(r"^\s*bundle\s*=", base, flags=re.M)) != 1:
+        raise SweepError(f"{BASE_SCENE} must name exactly one bundle for the contacts sweep")
+    scene = re.sub(r"^(\s*bundle\s*=).*$", rf'\1 "{bundle}"', base, flags=re.M)
+    features = {"collision_mode": f'"{collision_mode}"', "fracture": "false"}
+    for key, value in features.items():
+        if re.search(rf"^\s*{key}\s*=", scene, flags=re.M):
+            scene = re.sub(rf"^(\s*{key}\s*=).*$", rf"\1 {value}", scene, flags=re.M)
+        else:
+            scene = re.sub(r"^\[features\].*$", lambda m: f"{m.group(0)}\n{key} = {value}", scene, count=1, flags=re.M)
+    return scene
+
+
+def default_radius(tools: Tools, bundle: Path) -> float:
+    """The radius the bake picks without --sphere-radius (a fifth of the cage's median edge)."""
+    text = subprocess.run([str(tools.bake), "inspect", str(bundle)], capture_output=True, text=True, check=True).stdout
+    match = re.search(r"target radius ([0-9.eE+-]+)\)", text)
+    if not match:
+        raise SweepError(f"could not read the target radius from 'fissure-bake inspect {bundle}'")
+    return float(match.group(1))
+
+
+def sphere_radii(bundle: Path) -> list:
+    """The radii the bake chose (it halves a tet's radius until the tet holds 3 spheres, so
+    the target is only an upper bound), read with h5dump (hdf5-tools)."""
+    text = subprocess.run(["h5dump", "-y", "-w", "0", "-d", "/collision/sphere_radius", str(bundle)],
+                          capture_output=True, text=True, check=True).stdout
+    data = text[text.index("DATA {") + len("DATA {"):text.rindex("}")]
+    return [float(x) for x in re.findall(r"[-+0-9.eE]+", data.split("}")[0])]
+
+
+def bake_bundle(tools: Tools, bundle: Path, log: Path, radius: float = None) -> None:
+    command = [tools.bake, "-q", "bake", "--mesh", tools.repo / MESH, "--cage", tools.repo / CAGE, "-o", bundle,
+               "--skip", "walls"]  # the player needs no walls without rendering
+    if radius is not None:
+        command += ["--sphere-radius", f"{radius:.6g}"]
+    run_logged(command, log.with_suffix(".out"), log)
+
+
+def play(tools: Tools, scene: Path, report: Path, plan: ContactPlan, log: Path) -> dict:
+    """The run's JSON report, or None when it passed the time limit."""
+    try:
+        run_logged([tools.player, "-q", "run", scene, "--no-render", "--steps", str(plan.steps), "-j", "1",
+                    "--report", report], log.with_suffix(".out"), log, timeout=plan.time_limit_s)
+    except SweepError as e:
+        if "ran past" in str(e):
+            return None
+        raise
+    return json.loads(report.read_text())
+
+
+CONTACT_COLUMNS = ["collision_points", "radius_over_default", "target_radius_m", "spheres", "sphere_radius_median_m",
+                   "vertex_penetration_max_m", "sphere_penetration_max_m", "collisions_ms_mean", "step_ms_mean",
+                   "contacts", "stopped"]
+
+
+def contact_row(mode: str, factor, target: float, radii: list, report: dict) -> dict:
+    row = {"collision_points": mode, "radius_over_default": factor, "target_radius_m": target,
+           "spheres": len(radii), "sphere_radius_median_m": statistics.median(radii) if radii else "",
+           "stopped": int(report is None)}
+    if report is not None:
+        summary, timings = report["summary"], report["timings"]
+        row.update(vertex_penetration_max_m=summary["vertex_penetration_max_m"],
+                   sphere_penetration_max_m=summary["sphere_penetration_max_m"],
+                   collisions_ms_mean=timings["collisions"]["mean_ms"], step_ms_mean=timings["step"]["mean_ms"],
+                   contacts=summary["contacts"])
+    return row
+
+
+def run_contacts(tools: Tools, quick: bool, staging: Path) -> None:
+    plan = QUICK_CONTACTS if quick else FULL_CONTACTS
+    work = staging / "contacts-work"
+    work.mkdir()
+    log = staging / "contacts.log"
+    base = (tools.repo / BASE_SCENE).read_text()
+    bake_bundle(tools, work / "default.h5", log)
+    radius = default_radius(tools, work / "default.h5")
+    rows = []
+    for factor in plan.radius_factors:
+        bundle = "default.h5" if factor == 1.0 else f"r{factor}x.h5"
+        if factor != 1.0:
+            bake_bundle(tools, work / bundle, log, factor * radius)
+        scene = work / f"spheres-{factor}x.toml"
+        scene.write_text(scene_with(base, bundle, "spheres"))
+        print(f"    spheres at {factor}× the default radius ({plan.steps} steps)", flush=True)
+        report = play(tools, scene, work / f"spheres-{factor}x.json", plan, log)
+        rows.append(contact_row("spheres", factor, factor * radius, sphere_radii(work / bundle), report))
+    # The exact mode collides every render vertex and never reads the spheres: one run is
+    # the reference for every radius.
+    scene = work / "vertices.toml"
+    scene.write_text(scene_with(base, "default.h5", "vertices"))
+    print(f"    every render vertex, the exact mode ({plan.steps} steps)", flush=True)
+    rows.append(contact_row("vertices", "", "", [], play(tools, scene, work / "vertices.json", plan, log)))
+    with open(staging / "contacts.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, CONTACT_COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def run_sweep(tools: Tools, sweep: str, quick: bool, staging: Path) -> None:
+    if sweep == "contacts":
+        run_contacts(tools, quick, staging)
+    else:
+        run_bench(tools, sweep, quick, staging)
+
+
+SWEEPS = ("bake", "draw", "solver", "contacts")
+# The files each sweep leaves; the rest of its staging folder (bundles, scenes) is scratch.
+OUTPUTS = {
+    "bake": ("walls.csv", "spheres-bake.csv", "bake.md"),
+    "draw": ("draw.csv", "draw.md"),
+    "solver": ("dt.csv", "tolerance.csv", "spin.csv", "solver.md"),
+    "contacts": ("contacts.csv",),
+}

@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""pipelines/tradeoffs (issue 18): the reduced sweep CI runs, so the scripts cannot rot.
+
+Runs `tradeoffs.py --quick` into a temporary folder and checks what the figures must
+show whatever the machine: the trends each knob is known for (first-order convergence in
+dt and wall resolution, replication growing with tets, the exact model never ending
+above its start), every plot written as a PNG, and that a failed sweep leaves the files
+of the last good run as they were. No timing is asserted: the machine is shared.
+
+usage: tradeoffs_test.py BUILD_DIR REPOSITORY_ROOT
+"""
+
+import csv
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+failures = []
+
+
+def check(condition: bool, what: str) -> None:
+    if not condition:
+        failures.append(what)
+        print(f"FAIL: {what}", file=sys.stderr)
+
+
+def rows(folder: Path, name: str) -> list:
+    with open(folder / name, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def values(rs: list, key: str) -> list:
+    return [float(r[key]) for r in rs]
+
+
+def check_walls(out: Path) -> None:
+    walls = sorted(rows(out, "walls.csv"), key=lambda r: float(r["resolution"]))
+    errors = values(walls, "coverage_error")
+    check(len(walls) >= 2 and all(a > b for a, b in zip(errors, errors[1:])),
+          f"coverage error falls as the wall resolution grows: {errors}")
+    # About one texel row along each region boundary: first order in the texel size.
+    res = values(walls, "resolution")
+    order = (errors[0] / errors[-1]) / (res[-1] / res[0])
+    check(0.7 < order < 1.4, f"coverage error is first order in the texel size (ratio to first order {order:.2f})")
+    check(len({r["tiles"] for r in walls}) == 1, "the resolution changes the tiles' texels, not their number")
+
+
+def check_spheres(out: Path) -> None:
+    bake = {float(r["radius_over_default"]): r for r in rows(out, "spheres-bake.csv")}
+    check(float(bake[0.5]["max_gap_over_default"]) < float(bake[1.0]["max_gap_over_default"]),
+          "smaller spheres leave a smaller worst gap to the surface")
+    player = rows(out, "contacts.csv")
+    check([r["collision_points"] for r in player].count("vertices") == 1, "one exact (every-vertex) reference run")
+    check(all(r["stopped"] == "0" for r in player), "no contacts run passed its time limit")
+    for r in player:
+        if r["collision_points"] == "spheres":
+            check(float(r["sphere_radius_median_m"]) <= float(r["target_radius_m"]) * (1 + 1e-3),
+                  f"the bake's spheres are no larger than the target radius: {r}")
+
+
+def check_draw(out: Path) -> None:
+    draw = rows(out, "draw.csv")
+    five_k = sorted((r for r in draw if r["triangles"] == "5000"), key=lambda r: float(r["tets"]))
+    per_triangle = [float(r["instances"]) / 5000 for r in five_k]
+    check(len(five_k) >= 3 and all(a < b for a, b in zip(per_triangle, per_triangle[1:])),
+          f"replication grows with the cage's tets: {per_triangle}")
+    check(all(p >= 1 for p in per_triangle), "every triangle is drawn at least once")
+    by_tets = {}
+    for r in draw:
+        by_tets.setdefault(r["tets"], set()).add(r["upload_bytes_per_frame"])
+    check(all(len(u) == 1 for u in by_tets.values()), "uploads per frame depend on the cage only, not the triangles")
+
+
+def check_solver(out: Path) -> None:
+    dt = rows(out, "dt.csv")
+    for case in ("beam", "bunny"):
+        for model in ("warped", "exact"):
+            rs = sorted((r for r in dt if r["case"] == case and r["stiffness"] == model), key=lambda r: -float(r["dt_s"]))
+            errors = values(rs, "rms_error_relative")
+            check(all(a > b for a, b in zip(errors, errors[1:])), f"{case}, {model}: error falls with dt: {errors}")
+            check(all(r["failed_steps"] == "0" for r in rs), f"{case}, {model}: no step failed")
+    beam = sorted((r for r in dt if r["case"] == "beam" and r["stiffness"] == "warped"), key=lambda r: float(r["dt_s"]))
+    order = (float(beam[-1]["rms_error_relative"]) / float(beam[0]["rms_error_relative"])) / \
+            (float(beam[-1]["dt_s"]) / float(beam[0]["dt_s"]))
+    check(0.6 < order < 1.4, f"backward Euler is first order on the beam (ratio to first order {order:.2f})")
+    tolerance = rows(out, "tolerance.csv")
+    for case in ("beam", "bunny"):
+        for solver in ("cg-jacobi", "cg-lagged-cholesky"):
+            rs = sorted((r for r in tolerance if r["case"] == case and r["solver"] == solver),
+                        key=lambda r: -float(r["tolerance"]))
+            errors = values(rs, "error_vs_direct")
+            check(errors[-1] < errors[0] / 100, f"{case}, {solver}: a tighter tolerance comes closer to the direct solve")
+    for r in rows(out, "spin.csv"):
+        if r["stiffness"] == "exact":
+            check(float(r["final_energy_ratio"]) <= 1.0, f"the exact model ends below its start: {r}")
+
+
+def check_plots(out: Path) -> None:
+    for name in ("walls", "contacts", "cages", "triangles", "dt", "tolerance", "spin"):
+        png = out / f"{name}.png"
+        check(png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000,
+              f"{name}.png is a plot")
+    check(not list(out.glob(".staging-*")), "no staging folder is left")
+
+
+def check_failure_keeps_files(script: Path, out: Path) -> None:
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    run = subprocess.run([sys.executable, str(script), "--only", "bake", "--out", str(out), "--build",
+                          str(out / "no-build-here")], capture_output=True, text=True)
+    check(run.returncode == 1 and "is not built" in run.stderr, f"a missing build is named: {run.stderr!r}")
+    after = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    check(before == after, "a failed sweep leaves the files of the last run as they were")
+    run = subprocess.run([sys.executable, str(script), "--only", "bakes"], capture_output=True, text=True)
+    check(run.returncode == 2 and "unknown sweep bakes" in run.stderr, f"an unknown sweep is named: {run.stderr!r}")
+
+
+def main() -> int:
+    build, repo = Path(sys.argv[1]), Path(sys.argv[2])
+    script = repo / "pipelines" / "tradeoffs" / "tradeoffs.py"
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "tradeoffs"
+        run = subprocess.run([sys.executable, str(script), "--quick", "--out", str(out), "--build", str(build)],
+                             capture_output=True, text=True)
+        print(run.stdout)
+        if run.returncode != 0:
+            print(f"FAIL: tradeoffs.py --quick exited with {run.returncode}\n{run.stderr}", file=sys.stderr)
+            return 1
+        for checks in (check_walls, check_spheres, check_draw, check_solver, check_plots):
+            checks(out)
+        check_failure_keeps_files(script, out)
+    print(f"{len(failures)} failure(s)" if failures else "all trade-study checks hold")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
