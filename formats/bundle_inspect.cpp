@@ -89,16 +89,21 @@ std::string summary_text(const BundleSummary& s) {
   const Bundle& b = s.bundle;
   const Counts c = count(b);
   std::string out;
-  char line[256];
+  // Sized per call: file names, input paths and the options' JSON can be any length (a
+  // fixed 256-byte line cut the options of every real bundle short).
   auto add = [&](const char* format, auto... args) {
-    std::snprintf(line, sizeof line, format, args...);
-    out += line;
+    const auto length = static_cast<std::size_t>(std::snprintf(nullptr, 0, format, args...));
+    const std::size_t at = out.size();
+    out.resize(at + length + 1);
+    std::snprintf(out.data() + at, length + 1, format, args...);
+    out.resize(at + length);
   };
   add("%s  (%s)\n", s.file.c_str(), human_bytes(s.file_bytes).c_str());
   add("  schema        %s %d.%d, written by %s, units %s\n", kBundleFormatName, b.metadata.schema_major,
       b.metadata.schema_minor, b.metadata.generator.c_str(), b.metadata.units.c_str());
   for (const BundleInput& input : b.metadata.inputs) {
     add("  input %-7s %s  sha256 %.16s…\n", input.role.c_str(), input.name.c_str(), input.sha256.c_str());
+    if (!input.path.empty()) add("                read from %s (relative to the bundle)\n", input.path.c_str());
   }
   std::string stages;
   for (const auto& stage : s.stages) {
@@ -156,7 +161,8 @@ std::string summary_json(const BundleSummary& s) {
   j.key("bake_options").value(b.metadata.bake_options);
   j.key("inputs").begin_array();
   for (const BundleInput& input : b.metadata.inputs) {
-    j.begin_object().key("role").value(input.role).key("file").value(input.name).key("sha256").value(input.sha256).end_object();
+    j.begin_object().key("role").value(input.role).key("file").value(input.name).key("sha256").value(input.sha256);
+    j.key("path").value(input.path).end_object();  // "" when the bake did not record it (schema < 1.2)
   }
   j.end_array();
   j.key("stages").begin_array();

@@ -241,5 +241,19 @@ TEST(InspectBundle, SummaryCountsAndJson) {
   EXPECT_NE(json.find("\"replication\":[0,0,1,0,0,0,0,0,0]"), std::string::npos) << json;
 }
 
+TEST(InspectBundle, ShowsWhereTheBakeReadEachInputAndLongValuesWhole) {
+  TempDir dir;
+  Bundle b = testing::two_tet_bundle();
+  b.metadata.inputs[0].path = "../assets/" + std::string(300, 'm') + ".obj";  // longer than a line buffer would be
+  b.metadata.bake_options = "{\"note\":\"" + std::string(400, 'o') + "\"}";
+  write_bundle(dir / "b.h5", b);
+  const BundleSummary summary = summarize_bundle(dir / "b.h5");
+  const std::string text = summary_text(summary);
+  EXPECT_NE(text.find("read from " + b.metadata.inputs[0].path + " (relative to the bundle)\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("read from " + b.metadata.inputs[1].path + " (relative to the bundle)\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("options       " + b.metadata.bake_options + "\n"), std::string::npos) << "cut short: " << text;
+  EXPECT_NE(summary_json(summary).find("\"path\":\"" + b.metadata.inputs[0].path + "\""), std::string::npos);
+}
+
 }  // namespace
 }  // namespace fissure::formats
