@@ -134,7 +134,7 @@ std::string summary_text(const BundleSummary& s) {
   if (b.collision) {
     double solid = 0.0;
     for (Index t = 0; t < b.cage.tet_count(); ++t) solid += b.collision->mass_fraction[t] * signed_volume(b.cage, t);
-    add("collision\n  spheres       %zu (target radius %.4g)\n  solid volume  %.6g (Σ mass fraction × tet volume)\n",
+    add("collision\n  spheres       %zu (target radius %.6g)\n  solid volume  %.6g (Σ mass fraction × tet volume)\n",
         b.collision->sphere_tet.size(), b.collision->target_radius, solid);
   }
   out += "datasets\n";

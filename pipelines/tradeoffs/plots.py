@@ -70,7 +70,7 @@ def walls(folder: Path):
     error.set(xlabel="tile resolution (texels)", ylabel="coverage error (relative area)", title="what it buys")
     cost.loglog(res, column(rows, "walls_stage_s"), "o-", label="bake: walls stage, s")
     cost.loglog(res, column(rows, "walls_stored_mib"), "s-", label="bundle: /walls, MiB")
-    cost.set(xlabel="tile resolution (texels)", title="what it costs")
+    cost.set(xlabel="tile resolution (texels)", ylabel="s  /  MiB", title="what it costs")
     cost.legend()
     for ax in (error, cost):
         ticks_at(ax, res, lambda r: f"{int(r)}²")

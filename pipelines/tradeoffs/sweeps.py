@@ -13,6 +13,7 @@ Four sweeps, each named by what it varies:
 import csv
 import json
 import re
+import shutil
 import statistics
 import subprocess
 from dataclasses import dataclass
@@ -42,16 +43,20 @@ class Tools:
         return self.build / "player" / "app" / "fissure-player"
 
     def missing(self, sweep: str) -> list:
+        """What `sweep` needs and cannot find: a program not built, or h5dump."""
         needs = {
             "bake": [self.bench("fissure_stage2_sweep")],
             "draw": [self.bench("fissure_render_bench")],
             "solver": [self.bench("fissure_tradeoff_sweep")],
             "contacts": [self.bake, self.player],
         }[sweep]
-        return [p for p in needs if not p.is_file()]
+        missing = [f"{p} is not built" for p in needs if not p.is_file()]
+        if sweep == "contacts" and shutil.which("h5dump") is None:
+            missing.append("h5dump is not installed (hdf5-tools)")
+        return missing
 
 
-def run_logged(command: list, stdout: Path, log: Path, timeout: float = None) -> None:
+def run_logged(command: list, stdout: Path, log: Path, timeout: float = 1800) -> None:
     """Runs `command` with stdout to `stdout` and stderr to `log` (appended, after the
     command line); SweepError if it fails or passes `timeout` seconds."""
     with open(stdout, "w") as out, open(log, "a") as err:
@@ -67,7 +72,7 @@ def run_logged(command: list, stdout: Path, log: Path, timeout: float = None) ->
 
 # --- bake, draw, solver: the benchmark programs write their own CSV files -------------
 
-# The cages of data/cages, bunny-5k-cage-N: N = 10 … 100 are the thesis's Table II sizes.
+# The cages of data/cages, bunny-5k-cage-N: N = 10 … 100 are near the thesis's Table II sizes.
 # (987 and 10,024 are drawn with every mesh as well; see bench_arguments.)
 FULL_CAGES = "10,20,29,38,51,58,68,80,89,100"
 
@@ -129,9 +134,17 @@ def scene_with(base: str, bundle: str, collision_mode: str) -> str:
     return scene
 
 
+def output_of(command: list) -> str:
+    """The standard output of `command`; SweepError naming it if it fails."""
+    run = subprocess.run([str(c) for c in command], capture_output=True, text=True)
+    if run.returncode != 0:
+        raise SweepError(f"'{' '.join(str(c) for c in command)}' exited with {run.returncode}: {run.stderr.strip()}")
+    return run.stdout
+
+
 def default_radius(tools: Tools, bundle: Path) -> float:
     """The radius the bake picks without --sphere-radius (a fifth of the cage's median edge)."""
-    text = subprocess.run([str(tools.bake), "inspect", str(bundle)], capture_output=True, text=True, check=True).stdout
+    text = output_of([tools.bake, "inspect", bundle])
     match = re.search(r"target radius ([0-9.eE+-]+)\)", text)
     if not match:
         raise SweepError(f"could not read the target radius from 'fissure-bake inspect {bundle}'")
@@ -141,10 +154,11 @@ def default_radius(tools: Tools, bundle: Path) -> float:
 def sphere_radii(bundle: Path) -> list:
     """The radii the bake chose (it halves a tet's radius until the tet holds 3 spheres, so
     the target is only an upper bound), read with h5dump (hdf5-tools)."""
-    text = subprocess.run(["h5dump", "-y", "-w", "0", "-d", "/collision/sphere_radius", str(bundle)],
-                          capture_output=True, text=True, check=True).stdout
-    data = text[text.index("DATA {") + len("DATA {"):text.rindex("}")]
-    return [float(x) for x in re.findall(r"[-+0-9.eE]+", data.split("}")[0])]
+    text = output_of(["h5dump", "-y", "-w", "0", "-d", "/collision/sphere_radius", bundle])
+    match = re.search(r"DATA \{([^}]*)\}", text)
+    if not match:
+        raise SweepError(f"no sphere radii in h5dump's output for {bundle}")
+    return [float(x) for x in match.group(1).replace(",", " ").split()]
 
 
 def bake_bundle(tools: Tools, bundle: Path, log: Path, radius: float = None) -> None:
@@ -164,7 +178,10 @@ def play(tools: Tools, scene: Path, report: Path, plan: ContactPlan, log: Path) 
         if "ran past" in str(e):
             return None
         raise
-    return json.loads(report.read_text())
+    try:
+        return json.loads(report.read_text())
+    except (OSError, ValueError) as e:
+        raise SweepError(f"could not read the player's report {report.name}: {e}")
 
 
 CONTACT_COLUMNS = ["collision_points", "radius_over_default", "target_radius_m", "spheres", "sphere_radius_median_m",
@@ -177,11 +194,14 @@ def contact_row(mode: str, factor, target: float, radii: list, report: dict) -> 
            "spheres": len(radii), "sphere_radius_median_m": statistics.median(radii) if radii else "",
            "stopped": int(report is None)}
     if report is not None:
-        summary, timings = report["summary"], report["timings"]
-        row.update(vertex_penetration_max_m=summary["vertex_penetration_max_m"],
-                   sphere_penetration_max_m=summary["sphere_penetration_max_m"],
-                   collisions_ms_mean=timings["collisions"]["mean_ms"], step_ms_mean=timings["step"]["mean_ms"],
-                   contacts=summary["contacts"])
+        try:
+            summary, timings = report["summary"], report["timings"]
+            row.update(vertex_penetration_max_m=summary["vertex_penetration_max_m"],
+                       sphere_penetration_max_m=summary["sphere_penetration_max_m"],
+                       collisions_ms_mean=timings["collisions"]["mean_ms"], step_ms_mean=timings["step"]["mean_ms"],
+                       contacts=summary["contacts"])
+        except KeyError as e:
+            raise SweepError(f"the player's report has no {e} (run it with diagnostics on)")
     return row
 
 

@@ -3,7 +3,7 @@
 files and PNG plots into one folder. docs/tradeoffs.md shows the plots and says what to
 pick.
 
-  python3 pipelines/tradeoffs/tradeoffs.py                 # everything, into docs/tradeoffs/ (~10 min)
+  python3 pipelines/tradeoffs/tradeoffs.py                 # everything, into docs/tradeoffs/ (~1 min on 2 cores)
   python3 pipelines/tradeoffs/tradeoffs.py --quick         # CI's reduced sweep, into out/tradeoffs-quick/
   python3 pipelines/tradeoffs/tradeoffs.py --only solver   # one sweep; the other files are kept
   python3 pipelines/tradeoffs/tradeoffs.py --plots-only    # re-plot the CSV files already there
@@ -15,10 +15,11 @@ stiffness), contacts (sphere radius in the player against the exact every-vertex
 Needs a release build (scripts/build.sh release), matplotlib (python3-matplotlib) and
 h5dump (hdf5-tools): scripts/install-deps.sh installs both.
 
-Each sweep runs in a staging folder inside the output folder, and its files replace the
-old ones only when it succeeds: a failed or interrupted run leaves the last good CSV
-files and plots. run.json records the commit, the machine's core count and each
-sweep's wall time.
+Each sweep runs in a staging folder inside the output folder; the files of every sweep
+replace the old ones together, once all have succeeded, and the plots are redrawn from
+them: a failed or interrupted run leaves the last good CSV files and plots (and a failed
+sweep's log as SWEEP.failed.log). run.json records the commit, the machine's core count
+and each sweep's wall time.
 """
 
 import argparse
@@ -43,7 +44,7 @@ def parse_arguments() -> argparse.Namespace:
         description="Run Fissure's speed/accuracy sweeps and plot them (CSV and PNG files).",
         epilog="docs/tradeoffs.md explains each plot and what to pick.")
     parser.add_argument("--quick", action="store_true",
-                        help="the reduced sweep CI runs (2-3 points per knob, small images; ~1 min)")
+                        help="the reduced sweep CI runs (2-3 points per knob, small images; ~20 s)")
     parser.add_argument("--out", type=Path,
                         help="output folder (default: docs/tradeoffs, or out/tradeoffs-quick with --quick)")
     parser.add_argument("--build", type=Path, default=REPO / "build" / "release",
@@ -72,16 +73,16 @@ def commit() -> str:
 def publish(staging: Path, out: Path, names) -> None:
     """Moves the finished files into `out`, each replacing its old version in one rename."""
     for name in names:
-        if (staging / name).is_file():
-            os.replace(staging / name, out / name)
+        os.replace(staging / name, out / name)
 
 
-def record(out: Path, sweep: str, seconds: float, quick: bool) -> None:
-    """Adds this sweep's run to out/run.json (what produced the files that are there)."""
+def record(out: Path, finished: dict, quick: bool, measured: str) -> None:
+    """Adds each finished sweep's run to out/run.json (what produced the files there)."""
     path = out / "run.json"
     runs = json.loads(path.read_text()) if path.is_file() else {}
-    runs[sweep] = {"commit": commit(), "date": datetime.date.today().isoformat(), "quick": quick,
-                   "cores": os.cpu_count(), "wall_seconds": round(seconds, 1)}
+    for sweep, seconds in finished.items():
+        runs[sweep] = {"commit": measured, "date": datetime.date.today().isoformat(), "quick": quick,
+                       "cores": os.cpu_count(), "wall_seconds": round(seconds, 1)}
     with tempfile.NamedTemporaryFile("w", dir=out, suffix=".json.tmp", delete=False) as f:
         json.dump(runs, f, indent=2, sort_keys=True)
         f.write("\n")
@@ -89,27 +90,45 @@ def record(out: Path, sweep: str, seconds: float, quick: bool) -> None:
     os.replace(f.name, path)
 
 
+def run_one(tools: sweeps.Tools, sweep: str, quick: bool, out: Path, staging: Path) -> float:
+    """Runs `sweep` into `staging`; its wall seconds. On failure its log is kept as
+    out/SWEEP.failed.log and the SweepError says so."""
+    start = time.monotonic()
+    try:
+        sweeps.run_sweep(tools, sweep, quick, staging)
+        absent = [name for name in sweeps.OUTPUTS[sweep] if not (staging / name).is_file()]
+        if absent:  # e.g. a benchmark built before it knew --csv, which ignored it
+            raise sweeps.SweepError(f"it wrote no {', '.join(absent)}; rebuild the benchmarks")
+    except sweeps.SweepError as e:
+        kept = out / f"{sweep}.failed.log"
+        if (staging / f"{sweep}.log").is_file():
+            shutil.copy(staging / f"{sweep}.log", kept)
+        raise sweeps.SweepError(f"the {sweep} sweep failed: {e}; its log: {kept}") from e
+    return time.monotonic() - start
+
+
 def run_sweeps(args, tools: sweeps.Tools) -> None:
-    for i, sweep in enumerate(args.only, 1):
+    """Runs every sweep asked for, then publishes all their files together: a run that
+    fails anywhere changes nothing in the output folder but the failed sweep's log."""
+    for sweep in args.only:
         missing = tools.missing(sweep)
         if missing:
-            raise sweeps.SweepError(f"{sweep}: {missing[0]} is not built; build it first: "
-                                    f"FISSURE_SKIP_INSTALL=1 bash scripts/build.sh release")
-        print(f"[{i}/{len(args.only)}] {sweep}", flush=True)
-        staging = Path(tempfile.mkdtemp(prefix=f".staging-{sweep}-", dir=args.out))
-        try:
-            start = time.monotonic()
-            sweeps.run_sweep(tools, sweep, args.quick, staging)
-            seconds = time.monotonic() - start
+            raise sweeps.SweepError(f"{sweep}: {missing[0]}; build or install it first "
+                                    "(FISSURE_SKIP_INSTALL=1 bash scripts/build.sh release; scripts/install-deps.sh)")
+    measured = commit()  # before any file of the output folder (perhaps tracked) changes
+    staged, finished = {}, {}
+    try:
+        for i, sweep in enumerate(args.only, 1):
+            print(f"[{i}/{len(args.only)}] {sweep}", flush=True)
+            staged[sweep] = Path(tempfile.mkdtemp(prefix=f".staging-{sweep}-", dir=args.out))
+            finished[sweep] = run_one(tools, sweep, args.quick, args.out, staged[sweep])
+            print(f"      done in {finished[sweep]:.0f} s", flush=True)
+        for sweep, staging in staged.items():
             publish(staging, args.out, sweeps.OUTPUTS[sweep])
-            record(args.out, sweep, seconds, args.quick)
-            print(f"      done in {seconds:.0f} s", flush=True)
-        except sweeps.SweepError as e:
-            kept = args.out / f"{sweep}.failed.log"
-            if (staging / f"{sweep}.log").is_file():
-                shutil.copy(staging / f"{sweep}.log", kept)
-            raise sweeps.SweepError(f"the {sweep} sweep failed: {e}; its log: {kept}") from e
-        finally:
+            (args.out / f"{sweep}.failed.log").unlink(missing_ok=True)
+        record(args.out, finished, args.quick, measured)
+    finally:
+        for staging in staged.values():
             shutil.rmtree(staging, ignore_errors=True)
 
 
@@ -158,10 +177,10 @@ def main() -> int:
             run_sweeps(args, tools)
         plot(args.out)
     except sweeps.SweepError as e:
-        print(f"error: {e}\nhint: the files of earlier runs in {args.out} are unchanged", file=sys.stderr)
+        print(f"error: {e}\nhint: the CSV files and plots in {args.out} are those of the last good run", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print(f"interrupted; the files of earlier runs in {args.out} are unchanged", file=sys.stderr)
+        print(f"interrupted; the CSV files and plots in {args.out} are those of the last good run", file=sys.stderr)
         return 130
     return 0
 

@@ -48,8 +48,9 @@ constexpr int kToleranceRate = 240;
 /// enough for the large steps to part from the reference).
 constexpr double kSpinSeconds = 0.5;
 
-/// What is swept. Every swept rate must divide reference_sample_rate, which must divide
-/// reference_rate, so every swept step has a reference state at the same time.
+/// What is swept. Every swept rate and kToleranceRate must divide reference_sample_rate,
+/// which must divide reference_rate, so every swept step has a reference state at the
+/// same time (check() says so before anything runs).
 struct Plan {
   /// Steps per second of the reference. 3840 = 16 × 240, so every swept rate divides it.
   int reference_rate = 3840;
@@ -61,8 +62,16 @@ struct Plan {
   double spin_reference_dt = 2.5e-4;
   std::vector<double> spin_dts{0.05, 0.02, 0.01, 0.005, 0.002};
 
-  /// Three points per knob and a coarser reference: for CI, so the sweep cannot rot.
+  /// Three rates, two tolerances, two spin steps and coarser references: for CI, so the
+  /// sweep cannot rot.
   static Plan quick() { return {960, 240, {30, 120, 240}, {1e-2, 1e-6}, 1e-3, {0.05, 0.01}}; }
+
+  void check() const {
+    const auto divides = [](int a, int b) { return a > 0 && b % a == 0; };
+    bool ok = divides(reference_sample_rate, reference_rate) && divides(kToleranceRate, reference_sample_rate);
+    for (const int rate : rates) ok = ok && divides(rate, reference_sample_rate);
+    if (!ok) throw Error("the sweep's rates do not divide the reference's sample rate", "fix Plan in tradeoff_sweep.cpp");
+  }
 };
 
 /// The CSV files the sweeps append to (nothing is written without --csv).
@@ -390,6 +399,7 @@ int main(int argc, char** argv) {
     }
     const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
     std::printf("threads: %d; every body released from rest, %d s simulated\n", threads, kSimulatedSeconds);
+    plan.check();
     CsvOutput csv(csv_dir);
     if (beam) sweep(beam_case(), plan, csv);
     if (bunny) sweep(bunny_case(), plan, csv);

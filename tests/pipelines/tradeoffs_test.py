@@ -36,6 +36,7 @@ def values(rs: list, key: str) -> list:
 
 def check_walls(out: Path) -> None:
     walls = sorted(rows(out, "walls.csv"), key=lambda r: float(r["resolution"]))
+    check(len(walls) == 3, f"the quick sweep bakes walls at 3 resolutions, not {len(walls)}")
     errors = values(walls, "coverage_error")
     check(len(walls) >= 2 and all(a > b for a, b in zip(errors, errors[1:])),
           f"coverage error falls as the wall resolution grows: {errors}")
@@ -48,9 +49,11 @@ def check_walls(out: Path) -> None:
 
 def check_spheres(out: Path) -> None:
     bake = {float(r["radius_over_default"]): r for r in rows(out, "spheres-bake.csv")}
+    check(sorted(bake) == [0.5, 1.0], f"the quick sweep bakes spheres at 0.5 and 1 times the default: {sorted(bake)}")
     check(float(bake[0.5]["max_gap_over_default"]) < float(bake[1.0]["max_gap_over_default"]),
           "smaller spheres leave a smaller worst gap to the surface")
     player = rows(out, "contacts.csv")
+    check(len(player) == 3, f"two sphere radii and the exact mode are played, not {len(player)} runs")
     check([r["collision_points"] for r in player].count("vertices") == 1, "one exact (every-vertex) reference run")
     check(all(r["stopped"] == "0" for r in player), "no contacts run passed its time limit")
     for r in player:
@@ -61,6 +64,7 @@ def check_spheres(out: Path) -> None:
 
 def check_draw(out: Path) -> None:
     draw = rows(out, "draw.csv")
+    check(len(draw) == 4, f"the quick draw sweep has 4 rows (3 cages, 2 meshes in one), not {len(draw)}")
     five_k = sorted((r for r in draw if r["triangles"] == "5000"), key=lambda r: float(r["tets"]))
     per_triangle = [float(r["instances"]) / 5000 for r in five_k]
     check(len(five_k) >= 3 and all(a < b for a, b in zip(per_triangle, per_triangle[1:])),
@@ -74,6 +78,7 @@ def check_draw(out: Path) -> None:
 
 def check_solver(out: Path) -> None:
     dt = rows(out, "dt.csv")
+    check(len(dt) == 12, f"3 rates × 2 models × 2 cases, not {len(dt)} rows")
     for case in ("beam", "bunny"):
         for model in ("warped", "exact"):
             rs = sorted((r for r in dt if r["case"] == case and r["stiffness"] == model), key=lambda r: -float(r["dt_s"]))
@@ -85,13 +90,16 @@ def check_solver(out: Path) -> None:
             (float(beam[-1]["dt_s"]) / float(beam[0]["dt_s"]))
     check(0.6 < order < 1.4, f"backward Euler is first order on the beam (ratio to first order {order:.2f})")
     tolerance = rows(out, "tolerance.csv")
+    check(len(tolerance) == 10, f"(direct + 2 tolerances × 2 preconditioners) × 2 cases, not {len(tolerance)} rows")
     for case in ("beam", "bunny"):
         for solver in ("cg-jacobi", "cg-lagged-cholesky"):
             rs = sorted((r for r in tolerance if r["case"] == case and r["solver"] == solver),
                         key=lambda r: -float(r["tolerance"]))
             errors = values(rs, "error_vs_direct")
             check(errors[-1] < errors[0] / 100, f"{case}, {solver}: a tighter tolerance comes closer to the direct solve")
-    for r in rows(out, "spin.csv"):
+    spin = rows(out, "spin.csv")
+    check(len(spin) == 4, f"2 steps × 2 models on the spinning beam, not {len(spin)} rows")
+    for r in spin:
         if r["stiffness"] == "exact":
             check(float(r["final_energy_ratio"]) <= 1.0, f"the exact model ends below its start: {r}")
 
@@ -104,13 +112,35 @@ def check_plots(out: Path) -> None:
     check(not list(out.glob(".staging-*")), "no staging folder is left")
 
 
-def check_failure_keeps_files(script: Path, out: Path) -> None:
+def check_failure_keeps_files(script: Path, build: Path, out: Path) -> None:
+    """A sweep that fails, before or while it runs, leaves every CSV file and plot as the
+    last good run left them; one that fails while running also leaves its log."""
     before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
     run = subprocess.run([sys.executable, str(script), "--only", "bake", "--out", str(out), "--build",
                           str(out / "no-build-here")], capture_output=True, text=True)
     check(run.returncode == 1 and "is not built" in run.stderr, f"a missing build is named: {run.stderr!r}")
-    after = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
-    check(before == after, "a failed sweep leaves the files of the last run as they were")
+    check(before == {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()},
+          "a sweep that cannot start changes nothing")
+
+    # A build whose draw benchmark fails halfway: the solver sweep, run first, succeeds,
+    # but nothing of the run may be published.
+    broken = out.parent / "broken-build"
+    (broken / "tests" / "bench").mkdir(parents=True)
+    (broken / "tests" / "bench" / "fissure_tradeoff_sweep").symlink_to(build / "tests" / "bench" / "fissure_tradeoff_sweep")
+    stub = broken / "tests" / "bench" / "fissure_render_bench"
+    stub.write_text("#!/bin/sh\necho 'error: the GL context went away' >&2\nexit 3\n")
+    stub.chmod(0o755)
+    run = subprocess.run([sys.executable, str(script), "--quick", "--only", "solver,draw", "--out", str(out),
+                          "--build", str(broken)], capture_output=True, text=True)
+    check(run.returncode == 1 and "the draw sweep failed" in run.stderr and "exited with 3" in run.stderr,
+          f"a failing sweep is named with its exit status: {run.stderr!r}")
+    log = out / "draw.failed.log"
+    check(log.is_file() and "the GL context went away" in log.read_text(), "the failed sweep's log is kept")
+    log.unlink(missing_ok=True)
+    check(before == {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()},
+          "a run with a failed sweep publishes nothing, not even the sweeps that succeeded")
+    check(not list(out.glob(".staging-*")), "no staging folder is left after a failure")
+
     run = subprocess.run([sys.executable, str(script), "--only", "bakes"], capture_output=True, text=True)
     check(run.returncode == 2 and "unknown sweep bakes" in run.stderr, f"an unknown sweep is named: {run.stderr!r}")
 
@@ -127,8 +157,11 @@ def main() -> int:
             print(f"FAIL: tradeoffs.py --quick exited with {run.returncode}\n{run.stderr}", file=sys.stderr)
             return 1
         for checks in (check_walls, check_spheres, check_draw, check_solver, check_plots):
-            checks(out)
-        check_failure_keeps_files(script, out)
+            try:
+                checks(out)
+            except (OSError, KeyError, IndexError, ValueError) as e:  # a missing file or column: report, go on
+                check(False, f"{checks.__name__}: {type(e).__name__}: {e}")
+        check_failure_keeps_files(script, build, out)
     print(f"{len(failures)} failure(s)" if failures else "all trade-study checks hold")
     return 1 if failures else 0
 
