@@ -415,10 +415,12 @@ struct StabilityScene {
 class Stability : public ::testing::TestWithParam<StabilityCase> {};
 
 /// The cases that still end above the energy they had (issue 16, open), all at dt = 0.1
-/// with a body that shatters. The likely cause, not yet proven: parts still joined at a
-/// node or an edge turn about that hinge, and such a turn still moves on a line
-/// (rigid_rotation.h turns whole fragments only). Measured peak ÷ available: ×1.1e4 and
-/// ×1.7e6 (the 300 m/s projectile, stiff), ×1.19 (projectile, ν = 0.499, E = 1e3),
+/// with a body that shatters. Where it comes from, traced phase by phase
+/// (docs/decisions.md, "Issue 16, session 17"): each linear solve turns the stiff parts
+/// on lines and makes up to 2.5e6 J of strain from 5 J; the arc update (rigid_rotation.h)
+/// removes it for whole fragments, not for parts turning about a node or edge hinge, nor
+/// after the contact correction has bent the fragment. Measured peak ÷ available: ×1.1e4 and
+/// ×6.6e5 (the 300 m/s projectile, stiff; ×1.7e6 in session 12), ×1.19 (projectile, ν = 0.499, E = 1e3),
 /// ×6.9e5, ×2.1 and ×3.5e8 (toughness 0). Before fragments turned on arcs, every stiff
 /// case at dt = 0.1 gained, by up to ×2e7, and the test could only ask for no runaway.
 bool still_gains_energy(const StabilityCase& c) {
