@@ -108,6 +108,8 @@ void write_summary(JsonWriter& json, const sim::World& world, const RunRecord& r
   json.key("contacts").value(static_cast<std::uint64_t>(s.contacts));
   json.key("contacts_swept_only").value(static_cast<std::uint64_t>(s.swept));
   json.key("contact_response_iterations").value(static_cast<std::uint64_t>(s.response_iterations));
+  json.key("restitution_limited_steps").value(static_cast<std::uint64_t>(s.restitution_limited));
+  json.key("restitution_kept_min").value(s.restitution_kept_min);
   if (run.diagnostics != nullptr) {
     json.key("sphere_penetration_max_m").value(run.diagnostics->sphere_penetration_max);
     json.key("sphere_penetration_final_m").value(run.diagnostics->sphere_penetration_final);
@@ -146,8 +148,13 @@ void print_summary(const sim::World& world, const RunRecord& run) {
     std::printf(", penetration max: spheres %.3g m, render vertices %.3g m", run.diagnostics->sphere_penetration_max,
                 run.diagnostics->vertex_penetration_max);
   }
-  std::printf("\nresponse  %.1f conjugate-gradient iterations/step inside the implicit step\n",
+  std::printf("\nresponse  %.1f conjugate-gradient iterations/step inside the implicit step",
               per_step(static_cast<double>(s.response_iterations), steps));
+  if (s.restitution_limited > 0) {
+    std::printf("; restitution cut in %zu steps to keep the energy (down to %.2g of it)", s.restitution_limited,
+                s.restitution_kept_min);
+  }
+  std::printf("\n");
   std::printf("solver     %s, %.1f iterations/step, %ld factorizations, %zu steps hit the iteration cap, at most %d substeps\n",
               solver_name(world.settings()), per_step(static_cast<double>(s.iterations), steps), s.factorizations,
               s.unconverged, s.substeps_max);

@@ -30,6 +30,8 @@ void RunStatistics::on_step(const sim::World& /*world*/, const sim::StepReport& 
   iterations += r.solver_iterations;
   factorizations += r.factorizations;
   substeps_max = std::max(substeps_max, r.substeps);
+  restitution_limited += r.restitution_kept < 1.0 ? 1 : 0;
+  restitution_kept_min = std::min(restitution_kept_min, r.restitution_kept);
 }
 
 }  // namespace fissure::player

@@ -24,6 +24,10 @@ class RunStatistics : public RunObserver {
   std::size_t splits = 0, exposed = 0, contacts = 0, swept = 0, unconverged = 0, response_iterations = 0;
   long iterations = 0, factorizations = 0;
   int substeps_max = 1;
+  /// Steps whose restitution was cut to keep a substep's energy budget, and the smallest
+  /// share kept (sim::StepReport::restitution_kept).
+  std::size_t restitution_limited = 0;
+  double restitution_kept_min = 1.0;
   std::vector<Index> initial_nodes;  ///< per body
 };
 

@@ -30,15 +30,15 @@ ContactMaterial combine(const ContactMaterial& a, const ContactMaterial& b) {
 /// the overlap is gone, so uncapped it would grow as 1/h (a 6 mm overlap at h = 1e-5 s
 /// threw fragments apart at 120 m/s). Box2D caps it the same way
 /// (contactPushMaxVelocity). Restitution applies only above a resting speed, so resting
-/// contact does not jitter.
-double contact_target(const Contact& c, double approach, const CollisionSettings& settings) {
+/// contact does not jitter. Returns the target without restitution and with it.
+std::pair<double, double> contact_targets(const Contact& c, double approach, const CollisionSettings& settings) {
   constexpr double kPushOut = 0.2;
   constexpr double kMaxPushOutSpeed = 1.0;  // [m/s]
   const double h = settings.dt;
   const double resting_speed = 2.0 * settings.gravity.norm() * h;
   const double speculative = c.gap >= 0.0 ? -c.gap / h : std::min(-kPushOut * c.gap / h, kMaxPushOutSpeed);
-  if (approach < -resting_speed && approach < speculative) return std::max(speculative, -c.restitution * approach);
-  return speculative;
+  const bool impact = approach < -resting_speed && approach < speculative;
+  return {speculative, impact ? std::max(speculative, -c.restitution * approach) : speculative};
 }
 
 ContactSide embedded_side(std::span<const CollisionBody> bodies, Index body, Index point) {
@@ -159,10 +159,10 @@ void static_contacts(const ContactSide& a, const SweptPoint& p, const ContactMat
   }
 }
 
-/// Adds the contact between two swept points if they meet during the step.
+/// Adds the contact between two swept points if they meet during the step. They touch
+/// at `reach` (the sum of the radii unless a split left them overlapping).
 void pair_contact(const ContactSide& a, const SweptPoint& pa, const ContactSide& b, const SweptPoint& pb,
-                  const ContactMaterial& m, std::vector<Contact>& out, ContactCounts& counts) {
-  const double reach = pa.radius + pb.radius;
+                  const ContactMaterial& m, std::vector<Contact>& out, ContactCounts& counts, double reach) {
   const auto s = time_of_impact(pa.start, pa.end, pb.start, pb.end, reach);
   if (!s) return;
   Vec3 normal = (pa.start + *s * (pa.end - pa.start)) - (pb.start + *s * (pb.end - pb.start));
@@ -252,7 +252,7 @@ void environment_and_projectile_contacts(std::span<const CollisionBody> bodies,
       const ContactMaterial m = combine(bodies[bi].material, projectiles[j].material);
       for (Index k = 0; k < sweeps[bi].size(); ++k) {
         pair_contact(embedded_side(bodies, bi, k), sweeps[bi][k], projectile_side(j), projectile_sweep[j], m, contacts,
-                     counts);
+                     counts, sweeps[bi][k].radius + projectile_sweep[j].radius);
       }
     }
   }
@@ -262,7 +262,8 @@ void environment_and_projectile_contacts(std::span<const CollisionBody> bodies,
     for (Index i = j + 1; i < projectiles.size(); ++i) {
       if (!projectiles[i].launched) continue;
       pair_contact(projectile_side(j), projectile_sweep[j], projectile_side(i), projectile_sweep[i],
-                   combine(projectiles[j].material, projectiles[i].material), contacts, counts);
+                   combine(projectiles[j].material, projectiles[i].material), contacts, counts,
+                   projectile_sweep[j].radius + projectile_sweep[i].radius);
     }
   }
 }
@@ -286,8 +287,17 @@ void self_contacts(std::span<const CollisionBody> bodies, const std::vector<std:
   counts.pairs_tested = pairs.size();
   // Narrow phase in pair order (each pair is found once); the later point is side a.
   for (const auto& [bj, kj, bi, k] : pairs) {
-    pair_contact(embedded_side(bodies, bi, k), sweeps[bi][k], embedded_side(bodies, bj, kj), sweeps[bj][kj],
-                 combine(bodies[bi].material, bodies[bj].material), contacts, counts);
+    const SweptPoint &pa = sweeps[bi][k], &pb = sweeps[bj][kj];
+    double reach = pa.radius + pb.radius;
+    const SplitOverlaps* overlaps = bodies[bi].split_overlaps;
+    if (bi == bj && overlaps != nullptr && is_split_overlap(*overlaps, k, kj)) {
+      // Held where it is: no contact while the free motion does not bring it closer.
+      const double apart = (pa.start - pb.start).norm();
+      if ((pa.end - pb.end).norm() >= apart) continue;
+      reach = std::min(reach, apart);
+    }
+    pair_contact(embedded_side(bodies, bi, k), pa, embedded_side(bodies, bj, kj), pb,
+                 combine(bodies[bi].material, bodies[bj].material), contacts, counts, reach);
   }
 }
 
@@ -296,33 +306,12 @@ ContactKey key(const Contact& c) {
                     c.b.owner, c.b.point};
 }
 
-/// What the response must meet for each contact, warm-started from the last step's
-/// impulses.
-std::vector<ContactConstraint> constraints_of(const std::vector<Contact>& contacts,
-                                              std::span<const CollisionBody> bodies,
-                                              std::span<const Projectile> projectiles,
-                                              const CollisionSettings& settings) {
-  std::vector<ContactConstraint> constraints;
-  constraints.reserve(contacts.size());
-  for (const Contact& c : contacts) {
-    const double approach = c.normal.dot(side_velocity(c.a, bodies, projectiles) - side_velocity(c.b, bodies, projectiles));
-    double warm_start = 0.0;
-    if (settings.impulses != nullptr) {
-      const auto found = settings.impulses->find(key(c));
-      if (found != settings.impulses->end()) warm_start = found->second;
-    }
-    constraints.push_back({c.a, c.b, c.normal, contact_target(c, approach, settings), c.friction, warm_start});
-  }
-  return constraints;
-}
-
 }  // namespace
 
-ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environment& environment,
-                                 std::span<Projectile> projectiles, std::span<const Vec3> projectile_start,
-                                 const CollisionSettings& settings) {
-  ContactCounts counts;
-  const double h = settings.dt;
+StepContacts::StepContacts(std::span<CollisionBody> bodies, const Environment& environment,
+                           std::span<Projectile> projectiles, std::span<const Vec3> projectile_start,
+                           const CollisionSettings& settings)
+    : m_bodies(bodies), m_projectiles(projectiles), m_projectile_start(projectile_start), m_settings(settings) {
   std::vector<SweptPoint> projectile_sweep(projectiles.size());
   for (std::size_t j = 0; j < projectiles.size(); ++j) {
     projectile_sweep[j] = {projectile_start[j], projectiles[j].position, projectiles[j].radius};
@@ -332,28 +321,67 @@ ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environm
   sweep_points(bodies, sweeps, bounds);
   std::vector<Contact> contacts;
   environment_and_projectile_contacts(bodies, sweeps, bounds, environment, projectiles, projectile_sweep, contacts,
-                                      counts);
-  if (settings.self_collision) self_contacts(bodies, sweeps, contacts, counts);
-  counts.contacts = contacts.size();
+                                      m_counts);
+  if (settings.self_collision) self_contacts(bodies, sweeps, contacts, m_counts);
+  m_counts.contacts = contacts.size();
+  // What the response must meet for each contact, warm-started from the last step's impulses.
+  m_constraints.reserve(contacts.size());
+  for (const Contact& c : contacts) {
+    const double approach = c.normal.dot(side_velocity(c.a, bodies, projectiles) - side_velocity(c.b, bodies, projectiles));
+    double warm_start = 0.0;
+    if (settings.impulses != nullptr) {
+      const auto found = settings.impulses->find(key(c));
+      if (found != settings.impulses->end()) warm_start = found->second;
+    }
+    const auto [inelastic, elastic] = contact_targets(c, approach, settings);
+    m_counts.restituting += elastic > inelastic ? 1 : 0;
+    m_approach.push_back(approach);
+    m_inelastic_target.push_back(inelastic);
+    m_elastic_target.push_back(elastic);
+    m_keys.push_back(key(c));
+    m_constraints.push_back({c.a, c.b, c.normal, elastic, c.friction, warm_start});
+  }
+}
 
-  std::vector<ContactConstraint> constraints = constraints_of(contacts, bodies, projectiles, settings);
+StepContacts::~StepContacts() = default;
+
+ContactCounts StepContacts::respond(double restitution_share) {
+  const double h = m_settings.dt;
+  for (std::size_t k = 0; k < m_constraints.size(); ++k) {
+    ContactConstraint& c = m_constraints[k];
+    // Exact at shares 0 and 1.
+    const double target = (1.0 - restitution_share) * m_inelastic_target[k] + restitution_share * m_elastic_target[k];
+    // Answering again: the last answer's impulse is the warm start, scaled as a lone
+    // contact's would be (its impulse is proportional to the velocity change it asks for).
+    const double asked = c.target - m_approach[k], now = target - m_approach[k];
+    if (m_answered && asked > 0.0 && now > 0.0) c.impulse *= now / asked;
+    c.target = target;
+  }
+  m_answered = true;
   ContactResponseSettings response;
   response.dt = h;
-  response.iterations = settings.iterations;
-  response.reference_speed = settings.gravity.norm() * h;
-  const ContactResponseReport outcome = respond_to_contacts(bodies, projectiles, constraints, response);
+  response.iterations = m_settings.iterations;
+  response.reference_speed = m_settings.gravity.norm() * h;
+  const ContactResponseReport outcome = respond_to_contacts(m_bodies, m_projectiles, m_constraints, response);
+  ContactCounts counts = m_counts;
   counts.response_iterations = outcome.cg_iterations;
-  if (settings.impulses != nullptr) {
-    settings.impulses->clear();
-    for (std::size_t k = 0; k < contacts.size(); ++k) {
-      if (constraints[k].impulse > 0.0) settings.impulses->emplace(key(contacts[k]), constraints[k].impulse);
+  if (m_settings.impulses != nullptr) {
+    m_settings.impulses->clear();
+    for (std::size_t k = 0; k < m_constraints.size(); ++k) {
+      if (m_constraints[k].impulse > 0.0) m_settings.impulses->emplace(m_keys[k], m_constraints[k].impulse);
     }
   }
   // The bodies moved with their corrected velocities; projectiles move likewise.
-  for (std::size_t j = 0; j < projectiles.size(); ++j) {
-    if (projectiles[j].launched) projectiles[j].position = projectile_sweep[j].start + h * projectiles[j].velocity;
+  for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
+    if (m_projectiles[j].launched) m_projectiles[j].position = m_projectile_start[j] + h * m_projectiles[j].velocity;
   }
   return counts;
+}
+
+ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environment& environment,
+                                 std::span<Projectile> projectiles, std::span<const Vec3> projectile_start,
+                                 const CollisionSettings& settings) {
+  return StepContacts(bodies, environment, projectiles, projectile_start, settings).respond(1.0);
 }
 
 }  // namespace fissure::sim

@@ -33,6 +33,7 @@
 #include "player/sim/broad_phase.h"
 #include "player/sim/environment.h"
 #include "player/sim/implicit_integrator.h"
+#include "player/sim/split_overlaps.h"
 
 namespace fissure::sim {
 
@@ -43,6 +44,8 @@ struct CollisionBody {
   const Matrix3Xd* start_positions = nullptr;  ///< node positions at the start of the step
   const std::vector<Index>* tet_fragment = nullptr;  ///< fragment of each tet (self-collision)
   ContactMaterial material;
+  /// Pairs of `points` a split left overlapping (split_overlaps.h): held, never pushed apart.
+  const SplitOverlaps* split_overlaps = nullptr;
 };
 
 /// One side of a contact: a point embedded in a body's tet, a projectile, or a static
@@ -83,11 +86,44 @@ struct ContactCounts {
   std::size_t swept = 0;         ///< contacts whose end states do not overlap: only the swept test caught them
   std::size_t pairs_tested = 0;  ///< narrow-phase point pairs of the self-collision broad phase
   std::size_t response_iterations = 0;  ///< conjugate-gradient iterations of the contact response
+  std::size_t restituting = 0;   ///< contacts whose target restitution raised (impacts above the resting speed)
 };
 
-/// Finds and resolves every contact of the step. The bodies have been solved and the
-/// launched projectiles moved (World) from `projectile_start` (one per projectile) to
-/// their positions; the response corrects both.
+/// The contacts of one step, found once (detection and targets), then answered by the
+/// response with any share of their restitution: World::collide answers twice when the
+/// full restitution would add energy, without finding the contacts again.
+struct ContactConstraint;  // contact_response.h
+
+class StepContacts {
+ public:
+  /// Finds every contact of the step; the arguments must outlive this.
+  StepContacts(std::span<CollisionBody> bodies, const Environment& environment, std::span<Projectile> projectiles,
+               std::span<const Vec3> projectile_start, const CollisionSettings& settings);
+  ~StepContacts();
+  StepContacts(const StepContacts&) = delete;
+  StepContacts& operator=(const StepContacts&) = delete;
+  /// Corrects the bodies and projectiles so every contact holds, with `restitution_share`
+  /// ∈ [0, 1] of each contact's restitution (0: inelastic). Answers the motion the
+  /// bodies have: to answer again, first restore the motion they had before.
+  ContactCounts respond(double restitution_share);
+  /// Contacts whose restitution asks for more than the inelastic target.
+  [[nodiscard]] std::size_t restituting() const { return m_counts.restituting; }
+
+ private:
+  std::span<CollisionBody> m_bodies;
+  std::span<Projectile> m_projectiles;
+  std::span<const Vec3> m_projectile_start;
+  CollisionSettings m_settings;
+  ContactCounts m_counts;
+  std::vector<ContactConstraint> m_constraints;
+  std::vector<double> m_approach, m_inelastic_target, m_elastic_target;  ///< per contact [m/s]
+  bool m_answered = false;
+  std::vector<ContactKey> m_keys;
+};
+
+/// Finds and resolves every contact of the step, with full restitution. The bodies have
+/// been solved and the launched projectiles moved (World) from `projectile_start` (one
+/// per projectile) to their positions; the response corrects both.
 ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environment& environment,
                                  std::span<Projectile> projectiles, std::span<const Vec3> projectile_start,
                                  const CollisionSettings& settings);

@@ -369,6 +369,20 @@ void ImplicitIntegrator::correct_velocities(const Eigen::VectorXd& delta, double
   }
 }
 
+void ImplicitIntegrator::save_motion(Motion& out) const {
+  out.positions = m_positions;
+  out.velocities = m_velocities;
+  out.last_dv = m_last_dv;
+}
+
+void ImplicitIntegrator::restore_motion(const Motion& motion) {
+  FISSURE_ASSERT(motion.positions.cols() == node_count() && motion.velocities.cols() == node_count());
+  m_positions = motion.positions;
+  m_velocities = motion.velocities;
+  m_last_dv = motion.last_dv;
+  m_smooth_solves = 0;  // as after correct_velocities: the next Δv answers a contact
+}
+
 double ImplicitIntegrator::rotate_rigid_parts(const Matrix3Xd& start, std::span<const Index> node_fragment,
                                               Index fragments) {
   FISSURE_ASSERT(start.cols() == m_positions.cols() && node_fragment.size() == m_pinned.size());

@@ -156,6 +156,14 @@ class ImplicitIntegrator {
   /// v += δ and x += h δ on the free nodes (δ indexed by system rows); the next solve
   /// starts from the corrected Δv.
   void correct_velocities(const Eigen::VectorXd& delta, double h);
+  /// The motion a contact response changes (positions, velocities, the Δv the next solve
+  /// starts from), to try two responses within one step and keep a blend of them
+  /// (World::collide). Restoring keeps the last solve's system valid, unlike restore().
+  struct Motion {
+    Matrix3Xd positions, velocities, last_dv;
+  };
+  void save_motion(Motion& out) const;
+  void restore_motion(const Motion& motion);
   /// Moves each fragment's rigid rotation since `start` (the positions before the step)
   /// on an arc instead of a line (rigid_rotation.h); `node_fragment[n]` is in
   /// [0, fragments). Returns the largest angle turned [rad].

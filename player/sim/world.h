@@ -51,6 +51,9 @@ struct WorldSettings {
   /// Each fragment's rigid rotation within a step moves on an arc, not a line
   /// (rigid_rotation.h); off: plain backward Euler, for comparison.
   bool rotate_on_arcs = true;
+  /// Restitution gives back at most what a substep would otherwise lose (World::collide);
+  /// off: Newton's rule on every contact alone, for comparison.
+  bool restitution_within_budget = true;
 };
 
 /// How a step ended. A step never throws for a numerical outcome: it says what
@@ -103,6 +106,9 @@ struct StepReport {
   std::vector<std::pair<Index, NodeSplit>> splits;      ///< (body, split)
   std::vector<std::pair<Index, TetFace>> exposed;       ///< (body, face newly on the boundary)
   ContactCounts contacts;
+  /// The smallest share of the contacts' restitution a substep kept: below 1 when the
+  /// full restitution would have ended it above its energy budget (World::collide).
+  double restitution_kept = 1.0;
 };
 
 /// What a renderer, recorder or viewer may read of one body between steps (DESIGN.md,
@@ -130,6 +136,8 @@ class Body {
   ContactMaterial contact;
   EmbeddedPoints spheres;
   EmbeddedPoints vertices;
+  /// Pairs of the collision points in use that a split left overlapping (split_overlaps.h).
+  SplitOverlaps split_overlaps;
 
   [[nodiscard]] const ImplicitIntegrator& integrator() const { return *m_integrator; }
   ImplicitIntegrator& integrator() { return *m_integrator; }
@@ -197,6 +205,7 @@ class World {
   [[nodiscard]] double kinetic_energy() const;
   [[nodiscard]] double elastic_energy() const;
   [[nodiscard]] double potential_energy() const;  ///< gravity, relative to the origin
+  [[nodiscard]] double total_energy() const { return kinetic_energy() + elastic_energy() + potential_energy(); }
   [[nodiscard]] BodyEnergy body_energy(Index body) const;
   /// The energy put into the world from outside since it was built [J]: each projectile's
   /// kinetic and gravity energy as it is launched (a scene's or a viewer's), and the
@@ -218,14 +227,36 @@ class World {
     std::vector<ImplicitIntegrator::Checkpoint> bodies;
     std::vector<Projectile> projectiles;
     ContactImpulses impulses;
+    std::vector<SplitOverlaps> split_overlaps;  ///< per body
     double energy_put_in = 0;
   };
   StepStatus advance(double dt, StepReport& report, int depth);
   void fracture_bodies(StepReport& report);
+  /// Records the collision points that `b`'s splits left overlapping across a new
+  /// fragment boundary (split_overlaps.h); `fragment_before`: its tets' fragments before.
+  void record_split_overlaps(Body& b, const std::vector<Index>& fragment_before) const;
   /// Solves every body at dt; on a failure, puts the solved ones back where they were.
   StepStatus solve_bodies(const StepSettings& step, StepReport& report);
   void launch_and_move_projectiles(double dt);
   void collide(double dt, StepReport& report);
+  /// What the contact phase may leave: the energy at the substep's start plus what was
+  /// put in since [J], and how much of that is rounding.
+  [[nodiscard]] std::pair<double, double> substep_energy_budget() const;
+  /// Answers `contacts` again inelastically and keeps the largest blend of the two
+  /// answers within `budget` [J] (the bodies hold the full restitution's answer).
+  void keep_restitution_within(StepContacts& contacts, double budget, StepReport& report);
+  /// The largest share s ∈ [0, 1] for which the blend of m_inelastic_motion and
+  /// m_bounced_motion (energies `inelastic` ≤ budget < `bounced`) keeps `budget`.
+  double largest_share_within(double budget, double inelastic, double bounced);
+  /// Every body's and projectile's motion, to try the contact response twice in a substep.
+  struct Motion {
+    std::vector<ImplicitIntegrator::Motion> bodies;
+    std::vector<Projectile> projectiles;
+  };
+  void save_motion(Motion& out) const;
+  void restore_motion(const Motion& motion);
+  /// Restores a + s (b − a).
+  void restore_blend(const Motion& a, const Motion& b, double s);
   /// Each fragment's rigid rotation since the step's start, on an arc (rigid_rotation.h).
   void rotate_fragments_on_arcs();
   /// The first body with a non-finite position or velocity (kInvalidIndex: a projectile).
@@ -240,9 +271,13 @@ class World {
   double m_time = 0;
   std::vector<Matrix3Xd> m_start_positions;  ///< per body, at the start of the current (sub)step
   std::vector<Vec3> m_projectile_start;      ///< likewise per projectile
+  double m_substep_projectile_energy = 0;    ///< the launched projectiles' energy at the substep's start
+  double m_substep_put_in = 0;               ///< energy_put_in() at the substep's start
+  Motion m_free_motion, m_bounced_motion, m_inelastic_motion, m_blend_motion;  ///< collide()'s scratch
   std::vector<Matrix3Xd> m_previous_positions;  ///< per body, at the start of the last whole step
   ContactImpulses m_contact_impulses;  ///< the last step's, to warm-start the next
   std::vector<Index> m_node_fragment;  ///< scratch for rotate_fragments_on_arcs
+  std::vector<Index> m_fragment_before;  ///< scratch for fracture_bodies: a body's tet fragments before its splits
   Checkpoint m_checkpoint;
   std::vector<ImplicitIntegrator::Checkpoint> m_substep_checkpoint;  ///< solve_bodies' scratch
   std::uint64_t m_steps = 0;

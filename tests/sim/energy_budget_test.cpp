@@ -1,0 +1,163 @@
+// Issue 16's energy bound where contacts could break it: restitution on coupled
+// contacts (World::keep_restitution_within) and collision spheres that a split leaves
+// overlapping (split_overlaps.h).
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <vector>
+
+#include "player/sim/split_overlaps.h"
+#include "player/sim/world.h"
+#include "tests/support/procedural.h"
+#include "tests/support/sim_fixtures.h"
+
+namespace fissure::sim {
+namespace {
+
+/// A 0.1 m cube falling at 2 m/s onto the ground, 2 mm above it, with `restitution`.
+testing::SceneParts falling_cube(double restitution) {
+  const TetMesh cube = testing::grid_cage(Vec3(0, 0, 0.002), Vec3(0.1, 0.1, 0.102), 1, 1, 1);
+  testing::SceneParts s;
+  s.bodies.push_back(testing::describe("cube", cube, Material{.density = 1000, .youngs_modulus = 1e6, .poisson_ratio = 0.3}));
+  s.bodies[0].contact = {.restitution = restitution, .friction = 0.0};
+  s.bodies[0].velocity = Matrix3Xd::Zero(3, cube.rest_positions.cols());
+  s.bodies[0].velocity.row(2).setConstant(-2.0);
+  s.environment.ground = Plane{.normal = Vec3::UnitZ(), .offset = 0, .material = {.restitution = restitution, .friction = 0.0}};
+  return s;
+}
+
+/// testing::breaking_bar() with every contact fully elastic, restitution 1.
+testing::SceneParts elastic_breaking_bar(bool within_budget) {
+  testing::SceneParts s = testing::breaking_bar();
+  s.bodies[0].contact.restitution = 1.0;
+  s.environment.ground->material.restitution = 1.0;
+  s.projectiles[0].material.restitution = 1.0;
+  s.settings.restitution_within_budget = within_budget;
+  return s;
+}
+
+struct Peak {
+  double ratio = 0;             ///< the highest energy ÷ (the start's + what was put in by then)
+  double restitution_kept = 1;  ///< the smallest share any step kept
+};
+
+Peak run(const testing::SceneParts& scene, int steps) {
+  const auto world = scene.make();
+  const double start = world->total_energy();
+  Peak peak;
+  for (int i = 0; i < steps; ++i) {
+    const StepReport report = world->step();
+    EXPECT_TRUE(report.status.ok()) << "step " << i;
+    peak.ratio = std::max(peak.ratio, world->total_energy() / (start + world->energy_put_in()));
+    peak.restitution_kept = std::min(peak.restitution_kept, report.restitution_kept);
+  }
+  return peak;
+}
+
+// The bar broken by the ball, every contact elastic: Newton's rule on each contact alone
+// asks the pile of fragments for more than the ball brought (measured ×1.033 at 200
+// steps). Within the budget no step ends above the energy put in.
+TEST(EnergyBudget, ElasticContactsOnAPileOfFragmentsAddNoEnergy) {
+  const Peak newton = run(elastic_breaking_bar(false), 200);
+  const Peak within = run(elastic_breaking_bar(true), 200);
+  std::printf("breaking bar, e = 1: Newton's rule peaks at %.6g of the energy put in, within the budget %.6g "
+              "(restitution kept down to %.3g)\n", newton.ratio, within.ratio, within.restitution_kept);
+  EXPECT_GT(newton.ratio, 1.01);  // the scene exercises the gain
+  EXPECT_LT(within.restitution_kept, 1.0);
+  EXPECT_LE(within.ratio, 1.0 + 1e-9);
+}
+
+// A lone impact loses energy with any restitution ≤ 1: it keeps all of it, so the budget
+// changes nothing, bit for bit, and the cube bounces.
+TEST(EnergyBudget, ALoneImpactKeepsItsRestitution) {
+  const auto rising_speed = [](double restitution, bool within_budget) {
+    testing::SceneParts scene = falling_cube(restitution);
+    scene.settings.restitution_within_budget = within_budget;
+    const auto world = scene.make();
+    double rising = 0.0;
+    for (int i = 0; i < 60; ++i) {
+      const StepReport report = world->step();
+      EXPECT_EQ(report.restitution_kept, 1.0) << "step " << i;
+      const ImplicitIntegrator& body = world->bodies()[0].integrator();
+      rising = std::max(rising, body.linear_momentum().z() / body.node_masses().sum());
+    }
+    return rising;
+  };
+  const double bounce = rising_speed(0.5, true);
+  EXPECT_EQ(bounce, rising_speed(0.5, false));
+  // Measured 0.47 m/s against 0.27 m/s at restitution 0 (the soft cube's own rebound):
+  // the rest of e · 2 m/s stays in the cube as vibration.
+  EXPECT_GT(bounce, rising_speed(0.0, true) + 0.15);
+}
+
+// Two tets sharing a face, one sphere each, overlapping across the face. Recorded when a
+// split puts the tets in different fragments, not when they stay in one or started apart;
+// forgotten once apart.
+TEST(SplitOverlaps, RecordedAcrossANewBoundaryAndForgottenOnceApart) {
+  Matrix3Xd x(3, 5);
+  x << 0, 1, 0, 0, 0,  //
+      0, 0, 1, 0, 0,   //
+      0, 0, 0, 1, -1;
+  Matrix4Xu tets(4, 2);
+  tets << 0, 0, 1, 2, 2, 1, 3, 4;
+  EmbeddedPoints points;
+  for (TetIndex t = 0; t < 2; ++t) {
+    points.tet.push_back(t);
+    points.barycentric.push_back(Vec4::Constant(0.25));
+    points.radius.push_back(0.3);  // centroids 0.5 apart
+  }
+  const std::vector<Index> one_piece{0, 0}, two_pieces{0, 1};
+  SplitOverlaps overlaps;
+  record_split_overlaps(x, tets, points, one_piece, one_piece, overlaps);
+  EXPECT_TRUE(overlaps.empty());  // nothing came apart
+  record_split_overlaps(x, tets, points, two_pieces, two_pieces, overlaps);
+  EXPECT_TRUE(overlaps.empty());  // apart before: an ordinary contact
+  record_split_overlaps(x, tets, points, one_piece, two_pieces, overlaps);
+  ASSERT_EQ(overlaps.size(), 1u);
+  EXPECT_TRUE(is_split_overlap(overlaps, 1, 0));
+  forget_separated(x, tets, points, overlaps);
+  EXPECT_EQ(overlaps.size(), 1u);
+  x(2, 4) = -2.0;  // tet 1's centroid moves 0.25 down: 0.75 apart
+  forget_separated(x, tets, points, overlaps);
+  EXPECT_TRUE(overlaps.empty());
+}
+
+// A stretched bar in free space with toughness 0 comes apart everywhere, its spheres
+// overlapping their neighbours (as baked spheres do). Held, not pushed apart: the
+// fragments fly off with at most the strain energy the bar held.
+TEST(SplitOverlaps, ABarComingApartGainsNoEnergyFromItsOverlappingSpheres) {
+  const TetMesh cage = testing::grid_cage(Vec3(0, 0, 0), Vec3(0.3, 0.1, 0.1), 3, 1, 1);
+  testing::SceneParts s;
+  s.bodies.push_back(testing::describe("bar", cage, Material{.density = 1000, .youngs_modulus = 1e5, .poisson_ratio = 0.3}));
+  BodyDescription& bar = s.bodies[0];
+  bar.toughness = 0.0;
+  bar.positions = cage.rest_positions;
+  bar.positions.row(0) *= 1.01;
+  for (TetIndex t = 0; t < cage.tet_count(); ++t) {
+    bar.spheres.tet.push_back(t);
+    bar.spheres.barycentric.push_back(Vec4::Constant(0.25));
+    bar.spheres.radius.push_back(0.03);  // neighbours' centroids are 0.02–0.05 m apart
+  }
+  s.settings.step.gravity = Vec3::Zero();
+  s.settings.fracture = true;
+  s.settings.self_collision = true;
+  const auto world = s.make();
+  const double start = world->total_energy();
+  double highest = start;
+  std::size_t held = 0;
+  for (int i = 0; i < 60; ++i) {
+    ASSERT_TRUE(world->step().status.ok());
+    held = std::max(held, world->bodies()[0].split_overlaps.size());
+    highest = std::max(highest, world->total_energy());
+  }
+  std::printf("bar coming apart: %u fragments, up to %zu sphere pairs held, peak %.6g J of %.6g J\n",
+              world->fragment_count(), held, highest, start);
+  EXPECT_GT(world->fragment_count(), 2u);
+  EXPECT_GT(held, 0u);
+  EXPECT_LE(highest, start * (1.0 + 1e-6));
+}
+
+}  // namespace
+}  // namespace fissure::sim
