@@ -89,11 +89,11 @@ struct ContactCounts {
   std::size_t restituting = 0;   ///< contacts whose target restitution raised (impacts above the resting speed)
 };
 
+struct ContactConstraint;  // contact_response.h
+
 /// The contacts of one step, found once (detection and targets), then answered by the
 /// response with any share of their restitution: World::collide answers twice when the
 /// full restitution would add energy, without finding the contacts again.
-struct ContactConstraint;  // contact_response.h
-
 class StepContacts {
  public:
   /// Finds every contact of the step; the arguments must outlive this.
@@ -116,9 +116,9 @@ class StepContacts {
   CollisionSettings m_settings;
   ContactCounts m_counts;
   std::vector<ContactConstraint> m_constraints;
-  std::vector<double> m_approach, m_inelastic_target, m_elastic_target;  ///< per contact [m/s]
-  bool m_answered = false;
   std::vector<ContactKey> m_keys;
+  std::vector<double> m_approach, m_inelastic_target, m_elastic_target;  ///< per contact [m/s]
+  bool m_answered = false;  ///< respond() ran: the constraints' impulses are its answer
 };
 
 /// Finds and resolves every contact of the step, with full restitution. The bodies have
