@@ -1,6 +1,7 @@
 #include "player/app/scene_view.h"
 
 #include <cmath>
+#include <optional>
 
 #include "common/tet_mesh.h"
 #include "player/render/shapes.h"
@@ -61,6 +62,24 @@ Vec3 world_up(const sim::World& world) {
   if (world.environment().ground) return world.environment().ground->normal.normalized();
   const Vec3& g = world.settings().step.gravity;
   return g.norm() > 0.0 ? Vec3(-g.normalized()) : Vec3(Vec3::UnitZ());
+}
+
+/// The bodies' centre of mass (their nodes' lumped masses), or nothing when no node
+/// has a finite position.
+std::optional<Vec3> centre_of_mass(const sim::World& world) {
+  Vec3 moment = Vec3::Zero();
+  double mass = 0.0;
+  for (const sim::Body& body : world.bodies()) {
+    const Matrix3Xd& x = body.integrator().positions();
+    const Eigen::VectorXd& m = body.integrator().node_masses();
+    for (Eigen::Index n = 0; n < x.cols(); ++n) {
+      if (!x.col(n).allFinite()) continue;
+      moment += m[n] * x.col(n);
+      mass += m[n];
+    }
+  }
+  if (!(mass > 0.0)) return std::nullopt;
+  return moment / mass;
 }
 
 }  // namespace
@@ -216,7 +235,7 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   const Vec3f up = world_up(world).cast<float>();
   const Eigen::Quaternionf z_to_up = Eigen::Quaternionf::FromTwoVectors(Vec3f::UnitZ(), up);
   m_camera = render::frame_box(view_box, z_to_up * Vec3f(-0.55f, 0.75f, -0.38f), up, 30.0f, aspect);
-  m_start_centre = bounds.center();
+  m_start_centre = centre_of_mass(world).value_or(bounds.center());
   if (camera) {
     m_follow = false;
     m_camera.eye = camera->position.cast<float>();
@@ -252,17 +271,13 @@ void SceneView::restore_camera() {
 }
 
 void SceneView::update(const sim::World& world) {
-  // Follow the bodies' centre (of their nodes' bounds), keeping the starting view's offset.
-  Eigen::AlignedBox3d bounds;
-  for (const sim::Body& body : world.bodies()) {
-    const Matrix3Xd& x = body.integrator().positions();
-    for (Eigen::Index n = 0; n < x.cols(); ++n) {
-      if (x.col(n).allFinite()) bounds.extend(Vec3(x.col(n)));
-    }
-  }
+  // Follow the bodies' centre of mass, keeping the starting view's offset. Not the
+  // centre of their bounds: once a hit throws a few small fragments far off, that
+  // centre lies between them and the body, and the body leaves the view (the sample's
+  // video lost the bunny from t = 1.4 s on).
   render::Camera camera = m_camera;
-  if (m_follow && !bounds.isEmpty()) {
-    const Vec3f shift = (bounds.center() - m_start_centre).cast<float>();
+  if (const std::optional<Vec3> centre = centre_of_mass(world); m_follow && centre) {
+    const Vec3f shift = (*centre - m_start_centre).cast<float>();
     camera.eye += shift;
     camera.target += shift;
   }
