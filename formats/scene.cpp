@@ -362,7 +362,7 @@ void read_box_corners(const Table& t, Vec3& min, Vec3& max) {
 
 void read_solver(const Table& t, SceneSolverSettings& s) {
   t.allow_only({"dt", "min_dt", "max_substep", "solver", "tolerance", "max_iterations", "preconditioner",
-                "refactor_iterations", "stiffness", "rotation", "threads", "max_splits_per_step"});
+                "refactor_iterations", "stiffness", "rotation", "exact_when_gaining", "threads", "max_splits_per_step"});
   t.read_number("dt", s.dt, [](double v) { return v > 0 && v <= 1; }, "0 < dt <= 1 [s]");
   t.read_number("min_dt", s.min_dt, [&](double v) { return v >= 0 && v <= s.dt; },
                 "0 <= min_dt <= dt (= " + format_number(s.dt) + ") [s]; 0 means a fixed step");
@@ -378,6 +378,8 @@ void read_solver(const Table& t, SceneSolverSettings& s) {
   t.read_integer("refactor_iterations", s.refactor_iterations, 1, INT_MAX, "an integer >= 1");
   t.read_choice("stiffness", s.stiffness, {{"warped", SceneStiffness::Warped}, {"exact", SceneStiffness::Exact}});
   t.read_choice("rotation", s.rotation, {{"arc", SceneRotation::Arc}, {"line", SceneRotation::Line}});
+  t.read_choice("exact_when_gaining", s.exact_when_gaining,
+                {{"never", SceneExact::Never}, {"solve", SceneExact::Solve}, {"contacts", SceneExact::Contacts}});
   t.read_integer("threads", s.threads, 0, kMaxThreads, "an integer in 0 … " + std::to_string(kMaxThreads) + " (0 = all cores)");
   t.read_integer("max_splits_per_step", s.max_splits_per_step, 0, INT_MAX, "an integer >= 0");
 }

@@ -103,6 +103,7 @@ enum class SceneSolver { Direct, ConjugateGradient };
 enum class ScenePreconditioner { Cholesky, Jacobi };
 enum class SceneStiffness { Warped, Exact };
 enum class SceneRotation { Arc, Line };
+enum class SceneExact { Never, Solve, Contacts };
 enum class SceneCollisionMode { Spheres, Vertices };
 
 struct SceneSolverSettings {
@@ -123,6 +124,10 @@ struct SceneSolverSettings {
   SceneStiffness stiffness = SceneStiffness::Warped;  ///< stiffness-warped or exact corotated tangent
   /// How a fragment's rigid turn within a step is applied (sim/rigid_rotation.h).
   SceneRotation rotation = SceneRotation::Arc;
+  /// Which substeps that gain energy are solved again to convergence (Newton iterations,
+  /// sim::WorldSettings::exact_when_gaining): where the linear solve gained ("solve"),
+  /// also where the contact response gained ("contacts"), or none ("never").
+  SceneExact exact_when_gaining = SceneExact::Solve;
   int threads = 0;               ///< 0 = all cores
   int max_splits_per_step = 64;  ///< fracture splits per step (per substep, see max_substep), ≥ 0 (0 = none)
 };

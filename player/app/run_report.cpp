@@ -110,6 +110,9 @@ void write_summary(JsonWriter& json, const sim::World& world, const RunRecord& r
   json.key("contact_response_iterations").value(static_cast<std::uint64_t>(s.response_iterations));
   json.key("restitution_limited_steps").value(static_cast<std::uint64_t>(s.restitution_limited));
   json.key("restitution_kept_min").value(s.restitution_kept_min);
+  json.key("exact_substeps").value(static_cast<std::uint64_t>(s.exact_substeps));
+  json.key("exact_newton_iterations").value(static_cast<std::uint64_t>(s.exact_iterations));
+  json.key("exact_substeps_rejected").value(static_cast<std::uint64_t>(s.exact_rejected));
   if (run.diagnostics != nullptr) {
     json.key("sphere_penetration_max_m").value(run.diagnostics->sphere_penetration_max);
     json.key("sphere_penetration_final_m").value(run.diagnostics->sphere_penetration_final);
@@ -158,6 +161,11 @@ void print_summary(const sim::World& world, const RunRecord& run) {
   std::printf("solver     %s, %.1f iterations/step, %ld factorizations, %zu steps hit the iteration cap, at most %d substeps\n",
               solver_name(world.settings()), per_step(static_cast<double>(s.iterations), steps), s.factorizations,
               s.unconverged, s.substeps_max);
+  if (s.exact_substeps > 0) {
+    std::printf("exact      %zu substeps solved again to convergence where the linear solve gained energy "
+                "(%zu Newton iterations; %zu kept the linear answer, whose contacts ended lower)\n",
+                s.exact_substeps, s.exact_iterations, s.exact_rejected);
+  }
   if (run.diagnostics != nullptr) {
     std::printf("checks     %.3f ms/step for energies and penetrations (outside the step)\n",
                 1e3 * per_step(run.diagnostics->seconds, steps));

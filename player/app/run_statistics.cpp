@@ -32,6 +32,9 @@ void RunStatistics::on_step(const sim::World& /*world*/, const sim::StepReport& 
   substeps_max = std::max(substeps_max, r.substeps);
   restitution_limited += r.restitution_kept < 1.0 ? 1 : 0;
   restitution_kept_min = std::min(restitution_kept_min, r.restitution_kept);
+  exact_substeps += r.exact_substeps;
+  exact_iterations += r.exact_iterations;
+  exact_rejected += r.exact_substeps_rejected;
 }
 
 }  // namespace fissure::player

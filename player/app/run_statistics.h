@@ -28,6 +28,9 @@ class RunStatistics : public RunObserver {
   /// share kept (sim::StepReport::restitution_kept).
   std::size_t restitution_limited = 0;
   double restitution_kept_min = 1.0;
+  /// Substeps solved again exactly where the linear solve gained, their Newton
+  /// iterations, and how many of them were dropped for the linear answer (sim::StepReport).
+  std::size_t exact_substeps = 0, exact_iterations = 0, exact_rejected = 0;
   std::vector<Index> initial_nodes;  ///< per body
 };
 

@@ -184,6 +184,9 @@ LoadedScene load_scene(const formats::Scene& scene) {
                                      : sim::Preconditioner::LaggedCholesky;
   settings.step.refactor_iterations = scene.solver.refactor_iterations;
   settings.rotate_on_arcs = scene.solver.rotation == formats::SceneRotation::Arc;
+  settings.exact_when_gaining = scene.solver.exact_when_gaining == formats::SceneExact::Never  ? sim::ExactResolve::Never
+                                : scene.solver.exact_when_gaining == formats::SceneExact::Solve ? sim::ExactResolve::Solve
+                                                                                                : sim::ExactResolve::SolveAndContacts;
   settings.min_dt = scene.solver.min_dt;
   settings.max_substep = scene.solver.max_substep;
   settings.fracture = scene.features.fracture;

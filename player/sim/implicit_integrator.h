@@ -169,6 +169,33 @@ class ImplicitIntegrator {
   /// [0, fragments). Returns the largest angle turned [rad].
   double rotate_rigid_parts(const Matrix3Xd& start, std::span<const Index> node_fragment, Index fragments);
 
+  /// What solve_exactly() did.
+  struct ExactSolve {
+    int iterations = 0;      ///< Newton iterations, one factorization each
+    bool converged = false;  ///< the Newton decrement fell below the tolerance
+    /// NotPositiveDefinite: a factorization failed; the body is back at solve()'s answer,
+    /// solved again, so the contact response has a valid system.
+    SolveStatus status = SolveStatus::Converged;
+  };
+  /// Backward Euler solved to convergence (Gast et al. 2015, "Optimization integrator for
+  /// large time steps"): Newton iterations on the step's incremental potential
+  ///   E(v) = ½ (v − v₀)ᵀ M (v − v₀) + Ψ(x₀ + h v) − h gᵀ M v + ½ h α vᵀ M v − ½ h β vᵀ K₀ v,
+  /// whose stationary point is the step's equation with the elastic forces at the end of
+  /// the step (K₀: the stiffness at its start, as solve() damps with). solve() takes one
+  /// linear step with the forces linearised about the start; a part turning fast about a
+  /// hinge, or a stiff body crushed, then ends the step on lines with strain the linear
+  /// model did not see, and energy the step did not have (issue 16). Here each iteration
+  /// solves with the exact stiffness (projected, so A stays positive definite) and a
+  /// backtracking line search keeps E from rising. Call after solve(), before another
+  /// evaluate(); `start`: the state solve() started from, saved with save(). Starts from
+  /// the current positions x, at v = (x − x₀) / h: solve()'s answer, or that answer turned
+  /// on arcs (World does: it starts with less strain). Leaves the last iteration's system
+  /// for the contact response. `impulses` (system rows, or null): impulses held fixed
+  /// through the step, −vᵀ p added to E, so the body answers them nonlinearly (World
+  /// passes the contact response's, A δ).
+  ExactSolve solve_exactly(const StepSettings& settings, const Checkpoint& start, int max_iterations,
+                           const Eigen::VectorXd* impulses = nullptr);
+
   [[nodiscard]] int last_iterations() const { return m_iterations; }
   /// Numeric Cholesky factorizations so far (direct solves, and LaggedCholesky refreshes).
   [[nodiscard]] int factorizations() const { return m_factorizations; }
@@ -188,6 +215,19 @@ class ImplicitIntegrator {
   [[nodiscard]] Vec3 angular_momentum() const;  ///< about the origin
 
  private:
+  /// solve_exactly()'s pieces, at the velocities of the free nodes `v` (system order):
+  /// puts the nodes at x₀ + h v; E(v); −∇E(v) from the last evaluate() at those positions.
+  void place(const Checkpoint& start, const Eigen::VectorXd& v, double h);
+  [[nodiscard]] double incremental_potential(const StepSettings& s, const Checkpoint& start, const Eigen::VectorXd& v,
+                                             const Eigen::VectorXd* impulses);
+  [[nodiscard]] Eigen::VectorXd incremental_residual(const StepSettings& s, const Checkpoint& start,
+                                                     const Eigen::VectorXd& v, const Eigen::VectorXd* impulses);
+  /// Armijo backtracking from v along dv (decrement −∇Eᵀdv): v, energy and the nodes move
+  /// to the first step that lowers E enough. False, and the nodes back at v, when none does.
+  bool backtrack(const StepSettings& s, const Checkpoint& start, const Eigen::VectorXd* impulses,
+                 const Eigen::VectorXd& dv, double decrement, Eigen::VectorXd& v, double& energy);
+  /// Per tet K₀ v at its corners, into m_tet_rhs (β damping's term; zero without β).
+  void start_stiffness_times(const Eigen::VectorXd& v);
   /// b of A Δv = b, from the last evaluate().
   Eigen::VectorXd right_hand_side(const StepSettings& settings);
   /// Factors the assembled system (counted); `lagged`: as a preconditioner.
@@ -234,6 +274,7 @@ class ImplicitIntegrator {
   Eigen::VectorXd m_inverse_diagonal;        ///< Jacobi's preconditioner
   int m_iterations = 0;
   ElementBuffers m_elements;
+  ElementBuffers m_start_elements;           ///< solve_exactly(): the step's start evaluation (K₀)
   PhaseTimes m_phase_times;
 };
 

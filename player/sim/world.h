@@ -35,6 +35,9 @@ struct BodyDescription {
   Matrix3Xd velocity;            ///< 3×#N initial node velocities (empty: at rest)
 };
 
+/// Which energy-gaining substeps World solves again exactly (WorldSettings::exact_when_gaining).
+enum class ExactResolve : std::uint8_t { Never, Solve, SolveAndContacts };
+
 struct WorldSettings {
   StepSettings step;
   double min_dt = 0;  ///< > 0: a step whose solve fails is retried as two halves, down to this
@@ -55,6 +58,14 @@ struct WorldSettings {
   /// Restitution gives back at most what a substep would otherwise lose (World::collide);
   /// off: Newton's rule on every contact alone, for comparison.
   bool restitution_within_budget = true;
+  /// A substep that ends above its energy budget (its start's energy plus what was put in)
+  /// is solved again exactly (ImplicitIntegrator::solve_exactly) where its linear solve
+  /// gained: from that answer turned on arcs, with its contacts answered again (Solve); and
+  /// also where its contact response gained, with that response's impulses held
+  /// (SolveAndContacts). See World::solve_exactly_if_gaining for what each fixes and what
+  /// the second still breaks. Paid only in substeps that would otherwise create energy.
+  ExactResolve exact_when_gaining = ExactResolve::Solve;
+  int exact_iterations = 30;  ///< Newton iterations at most per body and exact substep
 };
 
 /// How a step ended. A step never throws for a numerical outcome: it says what
@@ -110,6 +121,9 @@ struct StepReport {
   /// The smallest share of the contacts' restitution a substep kept: below 1 when the
   /// full restitution would have ended it above its energy budget (World::collide).
   double restitution_kept = 1.0;
+  int exact_substeps = 0;    ///< substeps solved again exactly (WorldSettings::exact_when_gaining)
+  int exact_iterations = 0;  ///< their Newton iterations, summed over bodies
+  int exact_substeps_rejected = 0;  ///< of those, the ones whose contacts then gained more: the linear answer kept
 };
 
 /// What a renderer, recorder or viewer may read of one body between steps (DESIGN.md,
@@ -243,6 +257,8 @@ class World {
   /// What the contact phase may leave: the energy at the substep's start plus what was
   /// put in since [J], and how much of that is rounding.
   [[nodiscard]] std::pair<double, double> substep_energy_budget() const;
+  /// The budget with its rounding allowance.
+  [[nodiscard]] static double sum(std::pair<double, double> budget) { return budget.first + budget.second; }
   /// Answers `contacts` again inelastically and keeps the largest blend of the two
   /// answers within `budget` [J] (the bodies hold the full restitution's answer).
   void keep_restitution_within(StepContacts& contacts, double budget, StepReport& report);
@@ -258,8 +274,18 @@ class World {
   void restore_motion(const Motion& motion);
   /// Restores a + s (b − a).
   void restore_blend(const Motion& a, const Motion& b, double s);
-  /// Each fragment's rigid rotation since the step's start, on an arc (rigid_rotation.h).
-  void rotate_fragments_on_arcs();
+  /// Each fragment's rigid rotation since `from` (per body), on an arc (rigid_rotation.h).
+  void rotate_fragments_on_arcs(const std::vector<Matrix3Xd>& from);
+  /// When the substep ended above its energy budget: back to the linear solve's answer
+  /// (m_linear_motion), every body solved exactly, projectiles and contacts again.
+  void solve_exactly_if_gaining(const StepSettings& step, StepReport& report);
+  /// The solve gained: every body solved exactly, then projectiles and contacts again.
+  void resolve_exactly(const StepSettings& step, StepReport& report);
+  /// The contacts gained: every body solved exactly with the contacts' impulses held.
+  void resolve_contacts_exactly(const StepSettings& step, StepReport& report);
+  void solve_bodies_exactly(const StepSettings& step, StepReport& report, const std::vector<Eigen::VectorXd>* impulses);
+  /// Back to the substep's linear answer after contacts and arcs (m_linear_end_motion).
+  void keep_linear_answer();
   /// The first body with a non-finite position or velocity (kInvalidIndex: a projectile).
   [[nodiscard]] std::optional<Index> first_non_finite() const;
   void roll_back(const StepReport& report);
@@ -274,7 +300,17 @@ class World {
   std::vector<Vec3> m_projectile_start;      ///< likewise per projectile
   double m_substep_projectile_energy = 0;    ///< the launched projectiles' energy at the substep's start
   double m_substep_put_in = 0;               ///< energy_put_in() at the substep's start
+  /// Per body, its energy at the substep's start and that energy's magnitude, once
+  /// computed (substep_energy_budget); cleared by solve_bodies.
+  mutable std::vector<std::pair<double, double>> m_substep_start_energy;
   Motion m_free_motion, m_bounced_motion, m_inelastic_motion, m_blend_motion;  ///< collide()'s scratch
+  Motion m_linear_motion;  ///< the bodies at the linear solve's answer, the projectiles before the substep
+  std::vector<Matrix3Xd> m_exact_positions;  ///< per body, the exact solve's answer before contacts
+  Motion m_linear_end_motion;                ///< the substep's linear answer after contacts and arcs
+  Motion m_contact_motion;                   ///< the substep's linear answer after contacts, before arcs
+  std::vector<Eigen::VectorXd> m_held_impulses;  ///< per body, the contact response's impulses (system rows)
+  ContactImpulses m_linear_end_impulses;     ///< and the contact impulses it left
+  double m_linear_end_put_in = 0;            ///< and energy_put_in() after it
   std::vector<Matrix3Xd> m_previous_positions;  ///< per body, at the start of the last whole step
   ContactImpulses m_contact_impulses;  ///< the last step's, to warm-start the next
   std::vector<Index> m_node_fragment;  ///< scratch for rotate_fragments_on_arcs

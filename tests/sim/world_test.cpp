@@ -418,17 +418,19 @@ class Stability : public ::testing::TestWithParam<StabilityCase> {};
 
 /// The cases that still end above the energy they had (issue 16, open), all at dt = 0.1
 /// with a body that shatters. Where it comes from, traced phase by phase
-/// (docs/decisions.md, "Issue 16, session 17"): each linear solve turns the stiff parts
-/// on lines and makes up to 2.5e6 J of strain from 5 J; the arc update (rigid_rotation.h)
-/// removes it for whole fragments, not for parts turning about a node or edge hinge, nor
-/// after the contact correction has bent the fragment. Measured peak ÷ available: ×1.1e4 and
-/// ×6.6e5 (the 300 m/s projectile, stiff; ×1.7e6 in session 12), ×1.19 (projectile, ν = 0.499, E = 1e3),
-/// ×6.9e5, ×2.1 and ×3.5e8 (toughness 0). Before fragments turned on arcs, every stiff
-/// case at dt = 0.1 gained, by up to ×2e7, and the test could only ask for no runaway.
+/// (docs/decisions.md, "Issue 16, session 17" and "session 19"): the linear solve turns
+/// stiff parts on lines, which the arcs (rigid_rotation.h) undo for whole fragments and
+/// the exact re-solve (World::solve_exactly_if_gaining) for parts turning about hinges;
+/// what is left is the contact response, a linear correction moved on lines, among
+/// hundreds of stiff one-tet fragments. Measured peak ÷ available (session 19): ×2.1e3
+/// and ×3.2e5 (the 300 m/s projectile, stiff), ×3.3e6, ×3.7 and ×3.5e8 (toughness 0).
+/// The soft, nearly incompressible projectile case (×1.19 before) keeps the bound since
+/// the exact re-solve.
 bool still_gains_energy(const StabilityCase& c) {
   const bool shatters = c.scenario == Scenario::Projectile || c.scenario == Scenario::Brittle;
-  const bool soft_and_compressible = c.poisson == 0.0 && c.youngs < 1e4;
-  return c.dt > 1e-3 && shatters && !soft_and_compressible;
+  const bool soft = c.youngs < 1e4;
+  const bool soft_and_compressible = c.poisson == 0.0 && soft;
+  return c.dt > 1e-3 && shatters && !soft_and_compressible && !(c.scenario == Scenario::Projectile && soft);
 }
 
 TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
@@ -479,9 +481,15 @@ TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
 // its nodes on lines, (hω)²/2 of strain in steel. Since fragments turn on arcs
 // (rigid_rotation.h, issue 16) the peak is the start's energy in every seed (measured
 // 0.099-0.113 J, nothing gained); so over several seeds the bound is now the real one.
+//
+// Nearly incompressible (ν = 0.499) it keeps the bound too, and it is the case that
+// showed an exact re-solve (World::solve_exactly_if_gaining) must be taken only where
+// the linear solve itself gains: re-solving every substep that ended above its budget
+// because of its contacts took it to ×1e8 in every seed (session 19, docs/decisions.md).
 TEST(Stability, AStiffSliverOnTheGroundAtLargeStepsDoesNotRunAway) {
+  for (const double poisson : {0.0, 0.499}) {
   for (unsigned seed = 1; seed <= 6; ++seed) {
-    StabilityScene scene({0.0, 1e11, 0.1, Scenario::Sliver}, seed);
+    StabilityScene scene({poisson, 1e11, 0.1, Scenario::Sliver}, seed);
     const double initial = scene.energy();
     double first_half = initial, second_half = 0.0, last = initial;
     for (int i = 0; i < 120; ++i) {
@@ -490,10 +498,11 @@ TEST(Stability, AStiffSliverOnTheGroundAtLargeStepsDoesNotRunAway) {
       ASSERT_TRUE(std::isfinite(last)) << "seed " << seed << ", step " << i;
       (i < 60 ? first_half : second_half) = std::max(i < 60 ? first_half : second_half, last);
     }
-    std::printf("stiff sliver at dt = 0.1, seed %u: %.3g J → peak %.3g J in the first 6 s, %.3g J in the next 6 s, "
-                "%.3g J at the end\n",
-                seed, initial, first_half, second_half, last);
-    EXPECT_LE(std::max(first_half, second_half), 1.01 * initial + 1e-3) << "seed " << seed;
+    std::printf("stiff sliver (ν = %g) at dt = 0.1, seed %u: %.3g J → peak %.3g J in the first 6 s, %.3g J in the "
+                "next 6 s, %.3g J at the end\n",
+                poisson, seed, initial, first_half, second_half, last);
+    EXPECT_LE(std::max(first_half, second_half), 1.01 * initial + 1e-3) << "ν = " << poisson << ", seed " << seed;
+  }
   }
 }
 
