@@ -162,8 +162,8 @@ void print_summary(const sim::World& world, const RunRecord& run) {
               solver_name(world.settings()), per_step(static_cast<double>(s.iterations), steps), s.factorizations,
               s.unconverged, s.substeps_max);
   if (s.exact_substeps > 0) {
-    std::printf("exact      %zu substeps solved again to convergence where the linear solve gained energy "
-                "(%zu Newton iterations; %zu kept the linear answer, whose contacts ended lower)\n",
+    std::printf("exact      %zu substeps solved again to convergence where they gained energy "
+                "(%zu Newton iterations; %zu kept the linear answer, which ended lower)\n",
                 s.exact_substeps, s.exact_iterations, s.exact_rejected);
   }
   if (run.diagnostics != nullptr) {
