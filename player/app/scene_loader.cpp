@@ -15,6 +15,15 @@ namespace {
 sim::ContactMaterial contact(double restitution, double friction) { return {restitution, friction}; }
 
 /// Every render vertex once, bound to the first (triangle, tet) instance that has it.
+sim::ExactResolve exact_resolve(formats::SceneExact exact) {
+  switch (exact) {
+    case formats::SceneExact::Never: return sim::ExactResolve::Never;
+    case formats::SceneExact::Solve: return sim::ExactResolve::Solve;
+    case formats::SceneExact::Contacts: return sim::ExactResolve::SolveAndContacts;
+  }
+  return sim::ExactResolve::Solve;
+}
+
 sim::EmbeddedPoints render_vertices(const formats::Bundle& bundle) {
   const auto& e = bundle.embedding;
   const std::size_t vertex_count = bundle.render.vertex_count();
@@ -184,9 +193,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
                                      : sim::Preconditioner::LaggedCholesky;
   settings.step.refactor_iterations = scene.solver.refactor_iterations;
   settings.rotate_on_arcs = scene.solver.rotation == formats::SceneRotation::Arc;
-  settings.exact_when_gaining = scene.solver.exact_when_gaining == formats::SceneExact::Never  ? sim::ExactResolve::Never
-                                : scene.solver.exact_when_gaining == formats::SceneExact::Solve ? sim::ExactResolve::Solve
-                                                                                                : sim::ExactResolve::SolveAndContacts;
+  settings.exact_when_gaining = exact_resolve(scene.solver.exact_when_gaining);
   settings.min_dt = scene.solver.min_dt;
   settings.max_substep = scene.solver.max_substep;
   settings.fracture = scene.features.fracture;

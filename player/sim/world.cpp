@@ -222,7 +222,7 @@ void World::rotate_fragments_on_arcs(const std::vector<Matrix3Xd>& from) {
 ///    the step after one such re-solve on; why is open (docs/decisions.md, session 19).
 void World::solve_exactly_if_gaining(const StepSettings& step, StepReport& report) {
   const double linear = total_energy();
-  if (linear <= sum(substep_energy_budget())) return;
+  if (linear <= substep_energy_limit()) return;
   save_motion(m_linear_end_motion);
   m_linear_end_impulses = m_contact_impulses;
   m_linear_end_put_in = m_energy_put_in;
@@ -231,7 +231,7 @@ void World::solve_exactly_if_gaining(const StepSettings& step, StepReport& repor
   restore_motion(m_linear_motion);
   m_energy_put_in = m_substep_put_in;
   if (m_settings.rotate_on_arcs) rotate_fragments_on_arcs(m_start_positions);
-  const bool solve_gained = total_energy() > sum(substep_energy_budget());
+  const bool solve_gained = total_energy() > substep_energy_limit();
   if (solve_gained) {
     resolve_exactly(step, report);
   } else if (m_settings.exact_when_gaining == ExactResolve::SolveAndContacts) {
@@ -401,8 +401,8 @@ void World::collide(double dt, StepReport& report) {
   report.contacts.response_iterations += counts.response_iterations;
   report.contacts.restituting += counts.restituting;
   if (restitutes) {
-    const auto [budget, rounding] = substep_energy_budget();
-    if (total_energy() > budget + rounding) keep_restitution_within(contacts, budget + rounding, report);
+    const double limit = substep_energy_limit();
+    if (total_energy() > limit) keep_restitution_within(contacts, limit, report);
   }
   report.collisions += seconds_since(start);
 }

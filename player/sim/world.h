@@ -257,8 +257,11 @@ class World {
   /// What the contact phase may leave: the energy at the substep's start plus what was
   /// put in since [J], and how much of that is rounding.
   [[nodiscard]] std::pair<double, double> substep_energy_budget() const;
-  /// The budget with its rounding allowance.
-  [[nodiscard]] static double sum(std::pair<double, double> budget) { return budget.first + budget.second; }
+  /// The most the substep may end with: the budget plus its rounding allowance.
+  [[nodiscard]] double substep_energy_limit() const {
+    const auto [budget, rounding] = substep_energy_budget();
+    return budget + rounding;
+  }
   /// Answers `contacts` again inelastically and keeps the largest blend of the two
   /// answers within `budget` [J] (the bodies hold the full restitution's answer).
   void keep_restitution_within(StepContacts& contacts, double budget, StepReport& report);
