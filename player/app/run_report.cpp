@@ -105,6 +105,7 @@ void write_summary(JsonWriter& json, const sim::World& world, const RunRecord& r
   json.key("fragments").value(static_cast<std::uint64_t>(world.fragment_count()));
   json.key("splits").value(static_cast<std::uint64_t>(s.splits));
   json.key("exposed_faces_new").value(static_cast<std::uint64_t>(s.exposed));
+  json.key("stand_in_spheres").value(static_cast<std::uint64_t>(s.stand_in_spheres));
   json.key("contacts").value(static_cast<std::uint64_t>(s.contacts));
   json.key("contacts_swept_only").value(static_cast<std::uint64_t>(s.swept));
   json.key("contact_response_iterations").value(static_cast<std::uint64_t>(s.response_iterations));
@@ -145,7 +146,9 @@ void print_summary(const sim::World& world, const RunRecord& run) {
     std::printf("momentum   |p| %.6g -> %.6g kg m/s, |L| %.6g -> %.6g kg m²/s\n", d->momentum_initial.norm(),
                 d->momentum_final.norm(), d->angular_initial.norm(), d->angular_final.norm());
   }
-  std::printf("fracture   %zu splits, %zu faces exposed, %u fragments\n", s.splits, s.exposed, world.fragment_count());
+  std::printf("fracture   %zu splits, %zu faces exposed, %u fragments", s.splits, s.exposed, world.fragment_count());
+  if (s.stand_in_spheres > 0) std::printf("; %zu spheres added to exposed tets that had none", s.stand_in_spheres);
+  std::printf("\n");
   std::printf("contacts   %zu (%zu caught only by swept tests)", s.contacts, s.swept);
   if (run.diagnostics != nullptr) {
     std::printf(", penetration max: spheres %.3g m, render vertices %.3g m", run.diagnostics->sphere_penetration_max,

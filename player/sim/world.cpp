@@ -6,7 +6,7 @@
 
 #include "common/assert.h"
 #include "common/error.h"
-#include "common/tet_mesh.h"
+#include "player/sim/stand_in_spheres.h"
 
 namespace fissure::sim {
 
@@ -15,29 +15,13 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-/// One sphere per tet, at its centroid, as large as fits inside the tet: the stand-in
-/// when a bundle has no baked spheres. Coarse (it ignores where the surface is), but
-/// never empty. The centroid is a quarter of each face's height from that face, so the
-/// radius is 3V / (4 · largest face area). (The inradius 3V / total area is larger
-/// whenever a face exceeds a quarter of the total: it poked out of the Kuhn tets of a
-/// grid by 0.03 of the edge, so face neighbours' spheres overlapped, and the moment
-/// fracture put them in different fragments, self-collision threw them apart.)
-EmbeddedPoints inscribed_spheres(const Matrix3Xd& rest, const Matrix4Xu& tets) {
-  EmbeddedPoints points;
-  for (TetIndex t = 0; t < static_cast<TetIndex>(tets.cols()); ++t) {
-    Mat3 edges;
-    const Vec3 x0 = rest.col(tets(0, t));
-    edges << rest.col(tets(1, t)) - x0, rest.col(tets(2, t)) - x0, rest.col(tets(3, t)) - x0;
-    double largest_face = 0.0;
-    for (const auto& face : kTetFaceNodes) {
-      const Vec3 a = rest.col(tets(face[0], t)), b = rest.col(tets(face[1], t)), c = rest.col(tets(face[2], t));
-      largest_face = std::max(largest_face, 0.5 * (b - a).cross(c - a).norm());
-    }
-    points.tet.push_back(t);
-    points.barycentric.push_back(Vec4::Constant(0.25));
-    points.radius.push_back(3.0 * (edges.determinant() / 6.0) / (4.0 * largest_face));
+std::vector<TetFace> fractured_faces(const FractureTopology& topology) {
+  std::vector<TetFace> out;
+  const std::vector<FaceState>& faces = topology.face_states();
+  for (std::size_t k = 0; k < faces.size(); ++k) {
+    if (faces[k] == FaceState::Fractured) out.push_back({static_cast<TetIndex>(k / 4), static_cast<int>(k % 4)});
   }
-  return points;
+  return out;
 }
 
 void check_time_step(double dt) {
@@ -96,6 +80,7 @@ World::World(std::vector<BodyDescription> bodies, Environment environment, std::
       throw Error(where + " has no render vertices for the exact collision mode", "use collision_mode = \"spheres\"");
     }
     FractureTopology topology(d.tets, static_cast<Index>(d.rest.cols()));
+    m_stand_ins.emplace_back(d.rest, d.tets, spheres, d.mass ? &*d.mass : nullptr);
     m_bodies.emplace_back(d.name, std::move(solver), std::move(topology),
                           FractureSettings{d.toughness, settings.max_splits_per_step}, d.contact, std::move(spheres),
                           std::move(d.vertices));
@@ -137,6 +122,8 @@ StepReport World::step() {
   m_checkpoint.impulses = m_contact_impulses;
   m_checkpoint.split_overlaps.resize(m_bodies.size());
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_checkpoint.split_overlaps[bi] = m_bodies[bi].split_overlaps;
+  m_checkpoint.sphere_counts.resize(m_bodies.size());
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_checkpoint.sphere_counts[bi] = m_bodies[bi].spheres.size();
   m_checkpoint.energy_put_in = m_energy_put_in;
   const int substeps = planned_substeps();
   for (int i = 0; i < substeps && report.status.ok(); ++i) {
@@ -311,6 +298,10 @@ void World::fracture_bodies(StepReport& report) {
     const bool holds_overlaps = m_settings.collisions && m_settings.self_collision;
     if (holds_overlaps) m_fragment_before = b.topology.tet_fragment();
     fracture(b.integrator(), b.topology, b.fracture, splits, exposed);
+    // Before the overlaps are recorded: a stand-in may overlap a sphere across the crack.
+    if (m_settings.collision_points == CollisionPoints::Spheres) {
+      report.stand_in_spheres += static_cast<int>(m_stand_ins[bi].add_for(exposed, b.spheres));
+    }
     if (holds_overlaps && b.topology.fragment_count() > fragments_before) record_split_overlaps(b, m_fragment_before);
     for (const NodeSplit& s : splits) report.splits.emplace_back(bi, s);
     for (const TetFace& f : exposed) report.exposed.emplace_back(bi, f);
@@ -540,7 +531,10 @@ void World::roll_back(const StepReport& report) {
   }
   m_projectiles = m_checkpoint.projectiles;
   m_contact_impulses = m_checkpoint.impulses;
-  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_bodies[bi].split_overlaps = m_checkpoint.split_overlaps[bi];
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+    m_bodies[bi].split_overlaps = m_checkpoint.split_overlaps[bi];
+    m_stand_ins[bi].truncate(m_bodies[bi].spheres, m_checkpoint.sphere_counts[bi]);
+  }
   m_energy_put_in = m_checkpoint.energy_put_in;
   m_time = m_checkpoint.time;
 }
@@ -580,6 +574,12 @@ void World::set_settings(const WorldSettings& settings) {
   // The recorded pairs index the collision points in use.
   if (settings.collision_points != m_settings.collision_points) {
     for (Body& b : m_bodies) b.split_overlaps.clear();
+  }
+  // Back to spheres: the tets exposed meanwhile get theirs now.
+  if (settings.collision_points == CollisionPoints::Spheres && m_settings.collision_points != CollisionPoints::Spheres) {
+    for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+      m_stand_ins[bi].add_for(fractured_faces(m_bodies[bi].topology), m_bodies[bi].spheres);
+    }
   }
   m_settings = settings;
   for (Body& b : m_bodies) b.fracture.max_splits_per_step = settings.max_splits_per_step;

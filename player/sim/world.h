@@ -14,6 +14,7 @@
 #include "player/sim/collision.h"
 #include "player/sim/fracture.h"
 #include "player/sim/implicit_integrator.h"
+#include "player/sim/stand_in_spheres.h"
 
 namespace fissure::sim {
 
@@ -124,6 +125,7 @@ struct StepReport {
   int exact_substeps = 0;    ///< substeps solved again exactly (WorldSettings::exact_when_gaining)
   int exact_iterations = 0;  ///< their Newton iterations, summed over bodies
   int exact_substeps_rejected = 0;  ///< of those, the ones whose contacts then gained more: the linear answer kept
+  int stand_in_spheres = 0;  ///< spheres given to tets that fracture exposed with none (stand_in_spheres.h)
 };
 
 /// What a renderer, recorder or viewer may read of one body between steps (DESIGN.md,
@@ -167,7 +169,8 @@ class Body {
 class World {
  public:
   /// Throws fissure::Error on invalid input. A body without baked spheres gets one
-  /// sphere per tet, at its centroid and inside the tet, so collisions still work.
+  /// sphere per tet, at its centroid and inside the tet, so collisions still work; a
+  /// tet with solid but no sphere gets one when fracture exposes it (stand_in_spheres.h).
   World(std::vector<BodyDescription> bodies, Environment environment, std::vector<Projectile> projectiles,
         WorldSettings settings);
 
@@ -243,6 +246,7 @@ class World {
     std::vector<Projectile> projectiles;
     ContactImpulses impulses;
     std::vector<SplitOverlaps> split_overlaps;  ///< per body
+    std::vector<std::size_t> sphere_counts;     ///< per body, before stand-ins were added
     double energy_put_in = 0;
   };
   StepStatus advance(double dt, StepReport& report, int depth);
@@ -295,6 +299,9 @@ class World {
   void keep_previous_positions(const StepReport& report);
 
   std::vector<Body> m_bodies;
+  /// Per body, the spheres its bare tets get when exposed (collision mode Spheres only:
+  /// the render-vertex mode is exact to the render surface, and leaves interior tets bare).
+  std::vector<StandInSpheres> m_stand_ins;
   Environment m_environment;
   std::vector<Projectile> m_projectiles;
   WorldSettings m_settings;

@@ -1,0 +1,95 @@
+#include "player/sim/stand_in_spheres.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/tet_mesh.h"
+
+namespace fissure::sim {
+
+namespace {
+
+/// A tet's volume and the area of each face, face i opposite corner i (kTetFaceNodes).
+std::pair<double, Vec4> volume_and_face_areas(const Matrix3Xd& rest, const Matrix4Xu& tets, TetIndex t) {
+  Mat3 edges;
+  const Vec3 x0 = rest.col(tets(0, t));
+  edges << rest.col(tets(1, t)) - x0, rest.col(tets(2, t)) - x0, rest.col(tets(3, t)) - x0;
+  Vec4 areas;
+  for (int i = 0; i < 4; ++i) {
+    const auto& face = kTetFaceNodes[i];
+    const Vec3 a = rest.col(tets(face[0], t)), b = rest.col(tets(face[1], t)), c = rest.col(tets(face[2], t));
+    areas[i] = 0.5 * (b - a).cross(c - a).norm();
+  }
+  return {edges.determinant() / 6.0, areas};
+}
+
+}  // namespace
+
+EmbeddedPoints inscribed_spheres(const Matrix3Xd& rest, const Matrix4Xu& tets) {
+  // The centroid is a quarter of each face's height from that face, so the radius is
+  // 3V / (4 · largest face area). (The inradius 3V / total area is larger whenever a face
+  // exceeds a quarter of the total: it poked out of the Kuhn tets of a grid by 0.03 of
+  // the edge, so face neighbours' spheres overlapped, and the moment fracture put them
+  // in different fragments, self-collision threw them apart.)
+  EmbeddedPoints points;
+  for (TetIndex t = 0; t < static_cast<TetIndex>(tets.cols()); ++t) {
+    const auto [volume, areas] = volume_and_face_areas(rest, tets, t);
+    points.tet.push_back(t);
+    points.barycentric.push_back(Vec4::Constant(0.25));
+    points.radius.push_back(3.0 * volume / (4.0 * areas.maxCoeff()));
+  }
+  return points;
+}
+
+StandInSpheres::StandInSpheres(const Matrix3Xd& rest, const Matrix4Xu& tets, const EmbeddedPoints& points,
+                               const MassDistribution* mass) {
+  const auto tet_count = static_cast<std::size_t>(tets.cols());
+  m_barycentric.assign(tet_count, Vec4::Constant(0.25));
+  m_radius.assign(tet_count, 0.0);
+  m_spent.assign(tet_count, 0.0);
+  std::vector<std::uint8_t> has_point(tet_count, 0);
+  for (const TetIndex t : points.tet) has_point[t] = 1;
+  for (std::size_t t = 0; t < tet_count; ++t) {
+    const double fraction = mass != nullptr ? mass->fraction[t] : 1.0;
+    if (has_point[t] || !(fraction > 0.0)) continue;
+    if (mass != nullptr) m_barycentric[t] = mass->center_of_mass[t];
+    // The distance from barycentric b to the face opposite corner i is b_i times that
+    // corner's height, 3V / A_i.
+    const auto [volume, areas] = volume_and_face_areas(rest, tets, static_cast<TetIndex>(t));
+    const Vec4 heights = 3.0 * volume * areas.cwiseInverse();
+    const double fits = m_barycentric[t].cwiseProduct(heights).minCoeff();
+    m_radius[t] = std::cbrt(std::min(fraction, 1.0)) * std::max(fits, 0.0);
+  }
+}
+
+std::size_t StandInSpheres::add_for(std::span<const TetFace> exposed, EmbeddedPoints& points) {
+  std::size_t added = 0;
+  for (const TetFace& face : exposed) {
+    const TetIndex t = face.tet;
+    if (t >= m_radius.size() || !(m_radius[t] > 0.0)) continue;
+    points.tet.push_back(t);
+    points.barycentric.push_back(m_barycentric[t]);
+    points.radius.push_back(m_radius[t]);
+    m_spent[t] = m_radius[t];
+    m_radius[t] = 0.0;
+    ++added;
+  }
+  return added;
+}
+
+void StandInSpheres::truncate(EmbeddedPoints& points, std::size_t count) {
+  for (std::size_t k = count; k < points.size(); ++k) {
+    const TetIndex t = points.tet[k];
+    m_radius[t] = m_spent[t];
+    m_spent[t] = 0.0;
+  }
+  points.tet.resize(std::min(count, points.size()));
+  points.barycentric.resize(points.tet.size());
+  points.radius.resize(points.tet.size());
+}
+
+std::size_t StandInSpheres::reserved() const {
+  return static_cast<std::size_t>(std::count_if(m_radius.begin(), m_radius.end(), [](double r) { return r > 0.0; }));
+}
+
+}  // namespace fissure::sim
