@@ -46,7 +46,7 @@ StandInSpheres::StandInSpheres(const Matrix3Xd& rest, const Matrix4Xu& tets, con
   const auto tet_count = static_cast<std::size_t>(tets.cols());
   m_barycentric.assign(tet_count, Vec4::Constant(0.25));
   m_radius.assign(tet_count, 0.0);
-  m_spent.assign(tet_count, 0.0);
+  m_given.assign(tet_count, 0);
   std::vector<std::uint8_t> has_point(tet_count, 0);
   for (const TetIndex t : points.tet) has_point[t] = 1;
   for (std::size_t t = 0; t < tet_count; ++t) {
@@ -66,30 +66,27 @@ std::size_t StandInSpheres::add_for(std::span<const TetFace> exposed, EmbeddedPo
   std::size_t added = 0;
   for (const TetFace& face : exposed) {
     const TetIndex t = face.tet;
-    if (t >= m_radius.size() || !(m_radius[t] > 0.0)) continue;
+    if (t >= m_radius.size() || !(m_radius[t] > 0.0) || m_given[t]) continue;
     points.tet.push_back(t);
     points.barycentric.push_back(m_barycentric[t]);
     points.radius.push_back(m_radius[t]);
-    m_spent[t] = m_radius[t];
-    m_radius[t] = 0.0;
+    m_given[t] = 1;
     ++added;
   }
   return added;
 }
 
 void StandInSpheres::truncate(EmbeddedPoints& points, std::size_t count) {
-  for (std::size_t k = count; k < points.size(); ++k) {
-    const TetIndex t = points.tet[k];
-    m_radius[t] = m_spent[t];
-    m_spent[t] = 0.0;
-  }
+  for (std::size_t k = count; k < points.size(); ++k) m_given[points.tet[k]] = 0;
   points.tet.resize(std::min(count, points.size()));
   points.barycentric.resize(points.tet.size());
   points.radius.resize(points.tet.size());
 }
 
 std::size_t StandInSpheres::reserved() const {
-  return static_cast<std::size_t>(std::count_if(m_radius.begin(), m_radius.end(), [](double r) { return r > 0.0; }));
+  std::size_t count = 0;
+  for (std::size_t t = 0; t < m_radius.size(); ++t) count += m_radius[t] > 0.0 && !m_given[t] ? 1 : 0;
+  return count;
 }
 
 }  // namespace fissure::sim

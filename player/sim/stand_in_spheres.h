@@ -8,12 +8,13 @@
 /// all, and a fragment made only of them falls through the ground (issue 16: with
 /// toughness 0, 197 of the sample bunny's 987 tets had none, and their one-tet fragments
 /// fell 0.9 m below the ground in 110 steps; the exact collision mode has the same hole
-/// wherever the render surface does not pass). So each tet that holds solid but no
+/// wherever the render surface does not pass; World covers the sphere mode only). So each tet that holds solid but no
 /// collision point keeps one sphere in reserve, and gets it the moment one of its faces
 /// is exposed: the scene pays nothing while the body is whole and the bundle stays as
 /// it was baked.
 
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -48,8 +49,8 @@ class StandInSpheres {
 
  private:
   std::vector<Vec4> m_barycentric;  ///< per tet
-  std::vector<double> m_radius;     ///< per tet; 0: no reserve (has points, holds no solid, or spent)
-  std::vector<double> m_spent;      ///< per tet: the radius of a spent reserve, 0 if none
+  std::vector<double> m_radius;     ///< per tet; 0: no reserve (it has points or holds no solid)
+  std::vector<std::uint8_t> m_given;  ///< per tet: its reserve is in the points now
 };
 
 }  // namespace fissure::sim
