@@ -16,7 +16,9 @@
 ///
 /// Solved by an augmented Lagrangian (Nocedal & Wright 17.4): each outer iteration
 /// solves (𝒜 + Σ_active κ_k c_k c_kᵀ + friction) δ = Σ_active (λ_k + κ_k r_k) c_k by
-/// conjugate gradients preconditioned with each body's own preconditioner, then updates
+/// conjugate gradients preconditioned with each body's own preconditioner, moves δ
+/// towards that answer as far as the augmented Lagrangian decreases (an exact line
+/// search: the active set changes along the way), then updates
 /// λ_k ← max(0, λ_k + κ_k (r_k − c_k · δ)). κ_k is about the point's effective mass in
 /// the system, so the preconditioned system stays well conditioned while λ carries the
 /// exact force. λ starts from the last step's impulse of the same contact (resting
