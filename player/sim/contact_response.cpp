@@ -192,6 +192,21 @@ class JointSystem {
   }
 
  private:
+  /// m_node_fragment = each node's fragment (after a split a node is in one); returns
+  /// the number of fragments.
+  Index map_node_fragments(const CollisionBody& b) {
+    const Matrix4Xu& tets = b.body->elasticity().tets();
+    m_node_fragment.assign(b.body->node_count(), 0);
+    Index fragments = 1;
+    if (b.tet_fragment == nullptr) return fragments;
+    for (Eigen::Index t = 0; t < tets.cols(); ++t) {
+      const Index f = (*b.tet_fragment)[t];
+      for (int c = 0; c < 4; ++c) m_node_fragment[tets(c, t)] = f;
+      fragments = std::max(fragments, f + 1);
+    }
+    return fragments;
+  }
+
   /// The solve's residual Σf − 𝒜δ, summed, is a force no contact exerted. A rigid
   /// shift s changes 𝒜δ by m_scale M s (the stiffness does not see it) and stores no
   /// strain: remove it with one, shared by the fragments the contacts touched and free
@@ -201,16 +216,7 @@ class JointSystem {
   /// share as speed: the bunny at toughness 0 gained ×1.19 in 49 steps (session 21).
   void balance_fragments(const CollisionBody& b, const Eigen::VectorXd& net, Eigen::VectorXd& d) {
     ImplicitIntegrator& body = *b.body;
-    const Matrix4Xu& tets = body.elasticity().tets();
-    m_node_fragment.assign(body.node_count(), 0);
-    Index fragments = 1;
-    if (b.tet_fragment != nullptr) {
-      for (Eigen::Index t = 0; t < tets.cols(); ++t) {
-        const Index f = (*b.tet_fragment)[t];
-        for (int c = 0; c < 4; ++c) m_node_fragment[tets(c, t)] = f;
-        fragments = std::max(fragments, f + 1);
-      }
-    }
+    const Index fragments = map_node_fragments(b);
     m_touched.assign(fragments, false);
     m_pinned.assign(fragments, false);
     for (NodeIndex node = 0; node < body.node_count(); ++node) {
