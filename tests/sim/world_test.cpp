@@ -329,7 +329,7 @@ TEST(World, TheFrameViewFollowsPositionsSplitsAndFragments) {
 
 // --- Stability grid --------------------------------------------------------------------
 
-enum class Scenario { Sliver, InvertedTet, Projectile, Brittle, Unbreakable };
+enum class Scenario { Sliver, InvertedTet, Projectile, Brittle, Unbreakable, Tumbling };
 
 const char* name(Scenario s) {
   switch (s) {
@@ -338,6 +338,7 @@ const char* name(Scenario s) {
     case Scenario::Projectile: return "Projectile300";
     case Scenario::Brittle: return "Toughness0";
     case Scenario::Unbreakable: return "ToughnessInf";
+    case Scenario::Tumbling: return "Tumbling";
   }
   return "?";
 }
@@ -345,6 +346,12 @@ const char* name(Scenario s) {
 struct StabilityCase {
   double poisson, youngs, dt;
   Scenario scenario;
+  // The loads grid's axes; the first grid keeps these defaults.
+  double density = 1000;         ///< [kg/m³]
+  double gravity = 9.81;         ///< [m/s²], downwards
+  double projectile_speed = 300; ///< [m/s], Scenario::Projectile only
+  bool self_collision = true;
+  unsigned seed = 1;             ///< draws the ±0.5 m/s velocity noise
 };
 
 std::string case_name(const ::testing::TestParamInfo<StabilityCase>& info) {
@@ -355,16 +362,16 @@ std::string case_name(const ::testing::TestParamInfo<StabilityCase>& info) {
 }
 
 /// The grid's scene: a small body (a 3×1×1 bar, or a 3×3×1 plate 1 mm thick) tumbling
-/// 5 cm above the ground (1 m/s sideways, 3 rad/s, ±0.5 m/s noise), fracture and
-/// self-collision on, toughness 1 N unless the scenario says otherwise.
+/// 5 cm above the ground (1 m/s sideways, 3 rad/s, ±0.5 m/s noise), fracture on,
+/// toughness 1 N unless the scenario says otherwise; the case sets density, gravity,
+/// the projectile's speed and self-collision.
 struct StabilityScene {
   TetMesh cage;
   WorldSettings settings;
   std::unique_ptr<World> world;
 
-  /// `seed` draws the ±0.5 m/s velocity noise.
-  explicit StabilityScene(const StabilityCase& c, unsigned seed = 1) {
-    const Material material{.density = 1000, .youngs_modulus = c.youngs, .poisson_ratio = c.poisson};
+  explicit StabilityScene(const StabilityCase& c) {
+    const Material material{.density = c.density, .youngs_modulus = c.youngs, .poisson_ratio = c.poisson};
     cage = c.scenario == Scenario::Sliver ? testing::grid_cage(Vec3(0, 0, 0.05), Vec3(0.3, 0.3, 0.05 + 1e-3), 3, 3, 1)
                                           : testing::grid_cage(Vec3(0, 0, 0.05), Vec3(0.3, 0.1, 0.15), 3, 1, 1);
     BodyDescription body = describe("body", cage, material);
@@ -372,7 +379,7 @@ struct StabilityScene {
                      : c.scenario == Scenario::Unbreakable ? std::numeric_limits<double>::infinity()
                                                            : 1.0;
     body.velocity = Matrix3Xd::Zero(3, cage.rest_positions.cols());
-    std::mt19937 rng(seed);
+    std::mt19937 rng(c.seed);
     std::uniform_real_distribution<double> u(-0.5, 0.5);
     const Vec3 centre = cage.rest_positions.rowwise().mean();
     for (Index n = 0; n < cage.node_count(); ++n) {
@@ -383,12 +390,13 @@ struct StabilityScene {
     env.ground = Plane{};
     std::vector<Projectile> projectiles;
     if (c.scenario == Scenario::Projectile) {
-      projectiles.push_back(Projectile{.position = Vec3(-1.0, 0.05, 0.1), .velocity = Vec3(300, 0, 0), .radius = 0.05,
+      projectiles.push_back(Projectile{.position = Vec3(-1.0, 0.05, 0.1), .velocity = Vec3(c.projectile_speed, 0, 0), .radius = 0.05,
                                        .mass = 0.1, .launch_time = 0, .material = {}, .launched = false});
     }
     settings.step.dt = c.dt;
+    settings.step.gravity = Vec3(0, 0, -c.gravity);
     settings.fracture = true;
-    settings.self_collision = true;
+    settings.self_collision = c.self_collision;
     if (c.scenario == Scenario::InvertedTet) {
       // Mirror tet 0's first node through the plane of its opposite face.
       Matrix3Xd& x = body.positions = cage.rest_positions;
@@ -436,38 +444,55 @@ bool still_gains_energy(const StabilityCase& c) {
   return c.dt > 1e-3 && shatters && !soft_and_compressible && !(c.scenario == Scenario::Projectile && soft);
 }
 
+/// What a run of the grid's scene did: its peak energy in each half and what the start
+/// and the fall made available.
+struct EnergyRun {
+  double available = 0, first_half = 0, second_half = 0;
+  [[nodiscard]] double highest() const { return std::max(first_half, second_half); }
+};
+
+/// Runs `steps` steps, asserting at each a finite state, no exception, a step that
+/// succeeded and bounded work (splits per step, fragments); returns the energy it saw.
+EnergyRun run_and_check(StabilityScene& scene, int steps) {
+  World& world = *scene.world;
+  const double initial = scene.energy();
+  EnergyRun run{.available = 0, .first_half = initial, .second_half = 0};
+  double lowest_potential = 0.0;
+  for (int i = 0; i < steps; ++i) {
+    StepReport report;
+    EXPECT_NO_THROW(report = world.step()) << "step " << i;
+    EXPECT_TRUE(report.status.ok()) << "step " << i << ": " << to_string(report.status.outcome);
+    const ImplicitIntegrator& s = world.bodies()[0].integrator();
+    EXPECT_TRUE(s.positions().allFinite() && s.velocities().allFinite()) << "step " << i;
+    for (const Projectile& p : world.projectiles()) EXPECT_TRUE(p.position.allFinite() && p.velocity.allFinite());
+    EXPECT_LE(report.splits.size(), static_cast<std::size_t>(scene.settings.max_splits_per_step));
+    EXPECT_LE(world.fragment_count(), scene.cage.tet_count());
+    const double e = scene.energy();
+    EXPECT_TRUE(std::isfinite(e)) << "step " << i;
+    if (::testing::Test::HasFailure()) break;
+    double& half = i < steps / 2 ? run.first_half : run.second_half;
+    half = std::max(half, e);
+    lowest_potential = std::min(lowest_potential, world.potential_energy());
+  }
+  run.available = initial - std::min(0.0, lowest_potential);
+  return run;
+}
+
 TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
   const StabilityCase& c = GetParam();
   StabilityScene scene(c);
-  World& world = *scene.world;
-  const double initial = scene.energy();
-  const int steps = 60;  // 0.6 ms at dt = 1e-5, 6 s at dt = 0.1
-  double lowest_potential = 0.0, first_half = initial, second_half = 0.0;
-  for (int i = 0; i < steps; ++i) {
-    StepReport report;
-    ASSERT_NO_THROW(report = world.step()) << "step " << i;
-    ASSERT_TRUE(report.status.ok()) << "step " << i << ": " << to_string(report.status.outcome);
-    const ImplicitIntegrator& s = world.bodies()[0].integrator();
-    ASSERT_TRUE(s.positions().allFinite() && s.velocities().allFinite()) << "step " << i;
-    for (const Projectile& p : world.projectiles()) ASSERT_TRUE(p.position.allFinite() && p.velocity.allFinite());
-    ASSERT_LE(report.splits.size(), static_cast<std::size_t>(scene.settings.max_splits_per_step));
-    ASSERT_LE(world.fragment_count(), scene.cage.tet_count());
-    const double e = scene.energy();
-    ASSERT_TRUE(std::isfinite(e)) << "step " << i;
-    (i < steps / 2 ? first_half : second_half) = std::max(i < steps / 2 ? first_half : second_half, e);
-    lowest_potential = std::min(lowest_potential, world.potential_energy());
-  }
-  const double available = initial - std::min(0.0, lowest_potential);  // what the start and the fall provide
-  const double highest = std::max(first_half, second_half);
+  const EnergyRun run = run_and_check(scene, 60);  // 0.6 ms at dt = 1e-5, 6 s at dt = 0.1
+  if (HasFailure()) return;
   std::printf("%-36s peak %9.3g J of %9.3g J available (×%.3g), second half / first half %.3g\n",
-              case_name({c, 0}).c_str(), highest, available, highest / available, second_half / first_half);
+              case_name({c, 0}).c_str(), run.highest(), run.available, run.highest() / run.available,
+              run.second_half / run.first_half);
   if (still_gains_energy(c)) {
     // Open (issue 16): what is left is not to run away, the second half of the run
     // peaking at most 10× the first, plus 1 J.
-    EXPECT_LE(second_half, 10.0 * first_half + 1.0);
+    EXPECT_LE(run.second_half, 10.0 * run.first_half + 1.0);
   } else {
     // Never more than there was, +1 % and 1 mJ.
-    EXPECT_LE(highest, 1.01 * available + 1e-3);
+    EXPECT_LE(run.highest(), 1.01 * run.available + 1e-3);
   }
 }
 
@@ -492,7 +517,7 @@ TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
 TEST(Stability, AStiffSliverOnTheGroundAtLargeStepsDoesNotRunAway) {
   for (const double poisson : {0.0, 0.499}) {
   for (unsigned seed = 1; seed <= 6; ++seed) {
-    StabilityScene scene({poisson, 1e11, 0.1, Scenario::Sliver}, seed);
+    StabilityScene scene({.poisson = poisson, .youngs = 1e11, .dt = 0.1, .scenario = Scenario::Sliver, .seed = seed});
     const double initial = scene.energy();
     double first_half = initial, second_half = 0.0, last = initial;
     for (int i = 0; i < 120; ++i) {
@@ -523,6 +548,72 @@ std::vector<StabilityCase> stability_cases() {
 }
 
 INSTANTIATE_TEST_SUITE_P(Grid, Stability, ::testing::ValuesIn(stability_cases()), case_name);
+
+// The loads grid: the issue's other axes (density, gravity, projectile speed,
+// self-collision, noise seeds) on a moderate material at the default step and the
+// largest the grid uses, each case asserting the energy bound.
+class StabilityUnderLoads : public ::testing::TestWithParam<StabilityCase> {};
+
+std::string load_case_name(const ::testing::TestParamInfo<StabilityCase>& info) {
+  const StabilityCase& c = info.param;
+  std::string out = c.scenario == Scenario::Projectile ? "Projectile1000" : "Tumbling";
+  out += c.density < 1.0 ? "_rho1em3" : "_rho1e6";
+  out += c.gravity > 100.0 ? "_g1e4" : "_g9p81";
+  out += c.self_collision ? "_self" : "_noself";
+  out += c.dt > 1e-2 ? "_dt0p1" : "_dt1by240";
+  return out + "_seed" + std::to_string(c.seed);
+}
+
+/// The loads cases that still end above the energy they had (issue 16, open), all a
+/// 1000 m/s projectile at dt = 0.1 s. Measured (session 22), peak ÷ available:
+/// - under 1e4 m/s² of gravity, where gravity alone moves anything 100 m per step (2000
+///   times the projectile's radius): ×1.8e5 to ×2.8e6 with the light bar (1e-3 kg/m³),
+///   one-step strain spikes of 1e9-1e11 J as fragments thrown off at km/s land, and
+///   fragments ending up to 900 m under the ground; ×1.08 and ×1.49 in two of the four
+///   heavy cases (1e6 kg/m³), the projectile thrown up at 990 m/s from the ground it
+///   rests on (the other two keep the bound);
+/// - the light bar under ordinary gravity: it keeps the bound where it stays whole
+///   (CHOLMOD) and gains ×1.06 where seed 1 shatters it into 12 (the portable build).
+bool load_case_still_gains_energy(const StabilityCase& c) {
+  return c.scenario == Scenario::Projectile && c.dt > 1e-2 && (c.gravity > 100.0 || c.density < 1.0);
+}
+
+TEST_P(StabilityUnderLoads, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
+  const StabilityCase& c = GetParam();
+  StabilityScene scene(c);
+  const EnergyRun run = run_and_check(scene, 60);
+  if (HasFailure()) return;
+  std::printf("%-48s peak %9.3g J of %9.3g J available (×%.3g), %ld fragments\n",
+              load_case_name({c, 0}).c_str(), run.highest(), run.available, run.highest() / run.available,
+              static_cast<long>(scene.world->fragment_count()));
+  if (load_case_still_gains_energy(c)) {
+    EXPECT_LE(run.second_half, 10.0 * run.first_half + 1.0);  // as the first grid's open cases
+  } else {
+    EXPECT_LE(run.highest(), 1.01 * run.available + 1e-3);  // never more than there was, +1 % and 1 mJ
+  }
+}
+
+std::vector<StabilityCase> load_cases() {
+  std::vector<StabilityCase> out;
+  for (const Scenario s : {Scenario::Tumbling, Scenario::Projectile}) {
+    for (const double density : {1e-3, 1e6}) {
+      for (const double gravity : {9.81, 1e4}) {
+        for (const bool self_collision : {false, true}) {
+          for (const double dt : {1.0 / 240.0, 0.1}) {
+            for (unsigned seed = 1; seed <= 2; ++seed) {
+              out.push_back({.poisson = 0.3, .youngs = 1e7, .dt = dt, .scenario = s, .density = density,
+                             .gravity = gravity, .projectile_speed = 1000, .self_collision = self_collision,
+                             .seed = seed});
+            }
+          }
+        }
+      }
+    }
+  }
+  return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(Grid, StabilityUnderLoads, ::testing::ValuesIn(load_cases()), load_case_name);
 
 // --- Input validation ------------------------------------------------------------------
 
