@@ -570,8 +570,9 @@ std::string load_case_name(const ::testing::TestParamInfo<StabilityCase>& info) 
 ///   times the projectile's radius): ×1.8e5 to ×2.8e6 with the light bar (1e-3 kg/m³),
 ///   one-step strain spikes of 1e9-1e11 J as fragments thrown off at km/s land, and
 ///   fragments ending up to 900 m under the ground; ×1.08 and ×1.49 in two of the four
-///   heavy cases (1e6 kg/m³), the projectile thrown up at 990 m/s from the ground it
-///   rests on (the other two keep the bound);
+///   heavy cases (1e6 kg/m³), the ball bouncing off the ground 23× faster than its
+///   restitution target asks (docs/decisions.md, "Session 22") (the other two keep the
+///   bound);
 /// - the light bar under ordinary gravity: it keeps the bound where it stays whole
 ///   (CHOLMOD) and gains ×1.06 where seed 1 shatters it into 12 (the portable build).
 bool load_case_still_gains_energy(const StabilityCase& c) {
