@@ -390,8 +390,9 @@ struct StabilityScene {
     env.ground = Plane{};
     std::vector<Projectile> projectiles;
     if (c.scenario == Scenario::Projectile) {
-      projectiles.push_back(Projectile{.position = Vec3(-1.0, 0.05, 0.1), .velocity = Vec3(c.projectile_speed, 0, 0), .radius = 0.05,
-                                       .mass = 0.1, .launch_time = 0, .material = {}, .launched = false});
+      projectiles.push_back(Projectile{.position = Vec3(-1.0, 0.05, 0.1), .velocity = Vec3(c.projectile_speed, 0, 0),
+                                       .radius = 0.05, .mass = 0.1, .launch_time = 0, .material = {},
+                                       .launched = false});
     }
     settings.step.dt = c.dt;
     settings.step.gravity = Vec3(0, 0, -c.gravity);
