@@ -114,6 +114,7 @@ void write_summary(JsonWriter& json, const sim::World& world, const RunRecord& r
   json.key("exact_substeps").value(static_cast<std::uint64_t>(s.exact_substeps));
   json.key("exact_newton_iterations").value(static_cast<std::uint64_t>(s.exact_iterations));
   json.key("exact_substeps_rejected").value(static_cast<std::uint64_t>(s.exact_rejected));
+  json.key("energy_halvings").value(static_cast<std::uint64_t>(s.energy_halvings));
   if (run.diagnostics != nullptr) {
     json.key("sphere_penetration_max_m").value(run.diagnostics->sphere_penetration_max);
     json.key("sphere_penetration_final_m").value(run.diagnostics->sphere_penetration_final);
@@ -168,6 +169,11 @@ void print_summary(const sim::World& world, const RunRecord& run) {
     std::printf("exact      %zu substeps solved again to convergence where they gained energy "
                 "(%zu Newton iterations; %zu kept the linear answer, which ended lower)\n",
                 s.exact_substeps, s.exact_iterations, s.exact_rejected);
+  }
+  if (s.energy_halvings > 0) {
+    std::printf("halved     %zu substeps taken again as two halves because they still gained energy "
+                "(solver.energy_halvings)\n",
+                s.energy_halvings);
   }
   if (run.diagnostics != nullptr) {
     std::printf("checks     %.3f ms/step for energies and penetrations (outside the step)\n",

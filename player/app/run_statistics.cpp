@@ -35,6 +35,7 @@ void RunStatistics::on_step(const sim::World& /*world*/, const sim::StepReport& 
   exact_substeps += r.exact_substeps;
   exact_iterations += r.exact_iterations;
   exact_rejected += r.exact_substeps_rejected;
+  energy_halvings += static_cast<std::size_t>(r.energy_halvings);
   stand_in_spheres += static_cast<std::size_t>(r.stand_in_spheres);
 }
 

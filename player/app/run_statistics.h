@@ -31,6 +31,8 @@ class RunStatistics : public RunObserver {
   /// Substeps solved again exactly where the linear solve gained, their Newton
   /// iterations, and how many of them were dropped for the linear answer (sim::StepReport).
   std::size_t exact_substeps = 0, exact_iterations = 0, exact_rejected = 0;
+  /// Substeps taken again as two halves because they still gained energy (sim::StepReport).
+  std::size_t energy_halvings = 0;
   /// Spheres given to tets that fracture exposed with no collision point (sim::StepReport).
   std::size_t stand_in_spheres = 0;
   std::vector<Index> initial_nodes;  ///< per body

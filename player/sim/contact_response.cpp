@@ -372,7 +372,11 @@ class AugmentedLagrangian {
       m_forces[k] = row.force(m_relative[k], row.active ? row.lambda + row.kappa * shortfall : 0.0);
       row.lambda = std::max(0.0, row.lambda + row.kappa * shortfall);
       violation = std::max(violation, shortfall);
-      unmet = unmet || shortfall > allowed[k];
+      // Both halves of complementarity: a contact must not fall short of its target,
+      // nor push while it already separates faster than asked (that push is work done
+      // on the bodies, energy no contact may add).
+      const bool overshoots = row.lambda > 0.0 && -shortfall > allowed[k];
+      unmet = unmet || shortfall > allowed[k] || overshoots;
     }
     return {violation, unmet};
   }

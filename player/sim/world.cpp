@@ -90,6 +90,7 @@ World::World(std::vector<BodyDescription> bodies, Environment environment, std::
   for (const Body& b : m_bodies) m_previous_positions.push_back(b.integrator().positions());
   m_deformation.resize(m_bodies.size());
   m_deformation_step.assign(m_bodies.size(), 0);
+  m_start_energy = total_energy();
 }
 
 Body::Body(std::string name_, std::unique_ptr<ImplicitIntegrator> integrator, FractureTopology topology_,
@@ -169,15 +170,41 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
     return solved;
   }
   ++report.substeps;
+  // What the bodies' checkpoint does not hold, to take the substep again as halves.
+  const std::vector<Projectile> projectiles_before = m_projectiles;
+  const double put_in_before = m_energy_put_in;
   const bool resolves = m_settings.exact_when_gaining != ExactResolve::Never;
   if (resolves) save_motion(m_linear_motion);
   launch_and_move_projectiles(dt);
   if (m_settings.collisions) collide(dt, report);
   if (m_settings.exact_when_gaining == ExactResolve::SolveAndContacts) save_motion(m_contact_motion);
   if (m_settings.rotate_on_arcs) rotate_fragments_on_arcs(m_start_positions);
-  if (resolves) solve_exactly_if_gaining(step, report);
+  const double energy = resolves ? solve_exactly_if_gaining(step, report)
+                        : m_settings.energy_halvings > 0 ? total_energy()
+                                                         : 0.0;
+  if (halves_when_gaining(dt, depth) && energy > substep_energy_limit() && energy > run_energy_limit()) {
+    // Still above its budget after every repair, and above all the run was given: the
+    // substep is too long for what happens in it (WorldSettings::energy_halvings).
+    // Taken again as two halves from its start.
+    for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_bodies[bi].integrator().restore(m_substep_checkpoint[bi]);
+    m_projectiles = projectiles_before;
+    m_energy_put_in = put_in_before;
+    --report.substeps;
+    ++report.energy_halvings;
+    const StepStatus first = advance(0.5 * dt, report, depth + 1);
+    return first.ok() ? advance(0.5 * dt, report, depth + 1) : first;
+  }
   m_time += dt;
   return {};
+}
+
+double World::run_energy_limit() const {
+  const double given = m_start_energy + m_energy_put_in;
+  return given + 1e-9 * (std::abs(m_start_energy) + std::abs(m_energy_put_in));
+}
+
+bool World::halves_when_gaining(double dt, int depth) const {
+  return depth < m_settings.energy_halvings && 0.5 * dt >= m_settings.min_dt;
 }
 
 void World::rotate_fragments_on_arcs(const std::vector<Matrix3Xd>& from) {
@@ -207,9 +234,9 @@ void World::rotate_fragments_on_arcs(const std::vector<Matrix3Xd>& from) {
 ///    again exactly with the response's impulses held. Not the default: a 1 mm steel
 ///    sliver with ν = 0.499 lying on the ground then runs away (×1e8) in every seed, from
 ///    the step after one such re-solve on; why is open (docs/decisions.md, session 19).
-void World::solve_exactly_if_gaining(const StepSettings& step, StepReport& report) {
+double World::solve_exactly_if_gaining(const StepSettings& step, StepReport& report) {
   const double linear = total_energy();
-  if (linear <= substep_energy_limit()) return;
+  if (linear <= substep_energy_limit()) return linear;
   save_motion(m_linear_end_motion);
   m_linear_end_impulses = m_contact_impulses;
   m_linear_end_put_in = m_energy_put_in;
@@ -225,15 +252,18 @@ void World::solve_exactly_if_gaining(const StepSettings& step, StepReport& repor
     resolve_contacts_exactly(step, report);
   } else {
     keep_linear_answer();
-    return;
+    return linear;
   }
   ++report.exact_substeps;
   // Both answer the substep; where the exact one still ends higher (its contacts, say,
   // answered linearly after a large exact step), the substep keeps the linear one.
-  if (total_energy() > linear) {
+  const double exact = total_energy();
+  if (exact > linear) {
     keep_linear_answer();
     ++report.exact_substeps_rejected;
+    return linear;
   }
+  return exact;
 }
 
 void World::resolve_exactly(const StepSettings& step, StepReport& report) {

@@ -67,6 +67,18 @@ struct WorldSettings {
   /// the second still breaks. Paid only in substeps that would otherwise create energy.
   ExactResolve exact_when_gaining = ExactResolve::Solve;
   int exact_iterations = 30;  ///< Newton iterations at most per body and exact substep
+  /// A substep that still ends above its energy budget after the repairs above, and
+  /// above all the world was given (its energy when built plus what was put in since),
+  /// is taken again as two halves from its start, at most this many times in a row (so
+  /// down to dt / 2^energy_halvings, and never below min_dt); 0: never. Step-size
+  /// control with the run's energy bound as the tolerance: what the repairs leave is the
+  /// large step's own error (contact corrections moved on lines, light stiff fragments
+  /// landing at km/s), which shrinks with the step. Gains that stay within what earlier
+  /// steps dissipated are let through: on the sample scene the strict per-substep test
+  /// halved 492 substeps for gains of at most 2.7 mJ, doubling its cost, in a run that
+  /// never came within 0.6 J of its bound. 6 keeps both stability grids within the bound
+  /// in every case (BENCHMARKS.md, issue 16).
+  int energy_halvings = 6;
 };
 
 /// How a step ended. A step never throws for a numerical outcome: it says what
@@ -124,6 +136,7 @@ struct StepReport {
   double restitution_kept = 1.0;
   int exact_substeps = 0;    ///< substeps solved again exactly (WorldSettings::exact_when_gaining)
   int exact_iterations = 0;  ///< their Newton iterations, summed over bodies
+  int energy_halvings = 0;   ///< substeps taken again as two halves because they gained energy
   int exact_substeps_rejected = 0;  ///< of those, the ones whose contacts then gained more: the linear answer kept
   int stand_in_spheres = 0;  ///< spheres given to tets that fracture exposed with none (stand_in_spheres.h)
 };
@@ -285,7 +298,14 @@ class World {
   void rotate_fragments_on_arcs(const std::vector<Matrix3Xd>& from);
   /// When the substep ended above its energy budget: back to the linear solve's answer
   /// (m_linear_motion), every body solved exactly, projectiles and contacts again.
-  void solve_exactly_if_gaining(const StepSettings& step, StepReport& report);
+  /// Returns the energy the substep ends with [J].
+  double solve_exactly_if_gaining(const StepSettings& step, StepReport& report);
+  /// Whether a substep of `dt` at halving depth `depth` that ends above its energy
+  /// budget is taken again as two halves (WorldSettings::energy_halvings, min_dt).
+  [[nodiscard]] bool halves_when_gaining(double dt, int depth) const;
+  /// The most energy the world may hold now: its energy when built plus what was put in
+  /// since, and rounding [J].
+  [[nodiscard]] double run_energy_limit() const;
   /// The solve gained: every body solved exactly, then projectiles and contacts again.
   void resolve_exactly(const StepSettings& step, StepReport& report);
   /// The contacts gained: every body solved exactly with the contacts' impulses held.
@@ -329,6 +349,7 @@ class World {
   std::vector<ImplicitIntegrator::Checkpoint> m_substep_checkpoint;  ///< solve_bodies' scratch
   std::uint64_t m_steps = 0;
   double m_energy_put_in = 0;  ///< see energy_put_in()
+  double m_start_energy = 0;   ///< total_energy() when the world was built
   mutable std::vector<std::vector<Mat3>> m_deformation;   ///< per body, frame()'s cache
   mutable std::vector<std::uint64_t> m_deformation_step;  ///< per body, the step it is of (+1; 0: none)
 };

@@ -159,9 +159,9 @@ TEST_F(PlayerCli, AnOverflowingSpeedIsRejectedNamingTheSceneKey) {
 // the body and a likely cause, and still writes its report (never exit 0 with 1e94 J).
 TEST_F(PlayerCli, ARunThatCreatesEnergyStopsWithExit1AndSaysWhereAndWhy) {
   const std::filesystem::path path = dir.path() / "large-steps.toml";
-  // Plain backward Euler (rotation = "line") at one step of 0.5 s (max_substep = 0)
-  // stretches the stiff pair as it tips over.
-  std::ofstream(path) << "[solver]\ndt = 0.5\nmax_substep = 0\nrotation = \"line\"\n\n[environment.ground]\n\n[[object]]\nname = \"pair\"\nbundle = \"two.h5\"\n"
+  // Plain backward Euler (rotation = "line") at one step of 0.5 s (max_substep = 0, no
+  // halving) stretches the stiff pair as it tips over.
+  std::ofstream(path) << "[solver]\ndt = 0.5\nmax_substep = 0\nrotation = \"line\"\nenergy_halvings = 0\n\n[environment.ground]\n\n[[object]]\nname = \"pair\"\nbundle = \"two.h5\"\n"
                          "translation = [0, 0, 0.05]\n\n[object.material]\nyoungs_modulus = 1e12\n";
   const auto report = dir.path() / "report.json";
   auto result = player("run " + quoted(path) + " --no-render --steps 30 --report " + quoted(report));
