@@ -171,8 +171,7 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   }
   ++report.substeps;
   // What the bodies' checkpoint does not hold, to take the substep again as halves.
-  const std::vector<Projectile> projectiles_before = m_projectiles;
-  const double put_in_before = m_energy_put_in;
+  const SubstepStart start{m_projectiles, m_energy_put_in};
   const bool resolves = m_settings.exact_when_gaining != ExactResolve::Never;
   if (resolves) save_motion(m_linear_motion);
   launch_and_move_projectiles(dt);
@@ -185,17 +184,21 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   if (halves_when_gaining(dt, depth) && energy > substep_energy_limit() && energy > run_energy_limit()) {
     // Still above its budget after every repair, and above all the run was given: the
     // substep is too long for what happens in it (WorldSettings::energy_halvings).
-    // Taken again as two halves from its start.
-    for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_bodies[bi].integrator().restore(m_substep_checkpoint[bi]);
-    m_projectiles = projectiles_before;
-    m_energy_put_in = put_in_before;
-    --report.substeps;
-    ++report.energy_halvings;
-    const StepStatus first = advance(0.5 * dt, report, depth + 1);
-    return first.ok() ? advance(0.5 * dt, report, depth + 1) : first;
+    return take_again_as_halves(start, dt, report, depth);
   }
   m_time += dt;
   return {};
+}
+
+StepStatus World::take_again_as_halves(const SubstepStart& start, double dt, StepReport& report, int depth) {
+  // The contact warm starts stay as the substep left them: they are only guesses.
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_bodies[bi].integrator().restore(m_substep_checkpoint[bi]);
+  m_projectiles = start.projectiles;
+  m_energy_put_in = start.energy_put_in;
+  --report.substeps;
+  ++report.energy_halvings;
+  const StepStatus first = advance(0.5 * dt, report, depth + 1);
+  return first.ok() ? advance(0.5 * dt, report, depth + 1) : first;
 }
 
 double World::run_energy_limit() const {

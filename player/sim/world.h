@@ -263,6 +263,13 @@ class World {
     double energy_put_in = 0;
   };
   StepStatus advance(double dt, StepReport& report, int depth);
+  /// What a substep's start holds beyond the bodies' checkpoint (solve_bodies).
+  struct SubstepStart {
+    std::vector<Projectile> projectiles;
+    double energy_put_in = 0;
+  };
+  /// Puts the substep back to its start and takes it as two halves, one level deeper.
+  StepStatus take_again_as_halves(const SubstepStart& start, double dt, StepReport& report, int depth);
   void fracture_bodies(StepReport& report);
   /// Records the collision points that `b`'s splits left overlapping across a new
   /// fragment boundary (split_overlaps.h); `fragment_before`: its tets' fragments before.

@@ -354,6 +354,7 @@ struct StabilityCase {
   double projectile_speed = 300; ///< [m/s], Scenario::Projectile only
   bool self_collision = true;
   unsigned seed = 1;             ///< draws the ±0.5 m/s velocity noise
+  double max_substep = 0.0;      ///< [s] WorldSettings::max_substep (0: dt in one step)
 };
 
 std::string case_name(const ::testing::TestParamInfo<StabilityCase>& info) {
@@ -397,6 +398,7 @@ struct StabilityScene {
                                        .launched = false});
     }
     settings.step.dt = c.dt;
+    settings.max_substep = c.max_substep;
     settings.step.gravity = Vec3(0, 0, -c.gravity);
     settings.fracture = true;
     settings.self_collision = c.self_collision;
@@ -453,7 +455,8 @@ EnergyRun run_and_check(StabilityScene& scene, int steps) {
     const ImplicitIntegrator& s = world.bodies()[0].integrator();
     EXPECT_TRUE(s.positions().allFinite() && s.velocities().allFinite()) << "step " << i;
     for (const Projectile& p : world.projectiles()) EXPECT_TRUE(p.position.allFinite() && p.velocity.allFinite());
-    EXPECT_LE(report.splits.size(), static_cast<std::size_t>(scene.settings.max_splits_per_step));
+    EXPECT_LE(report.splits.size(),
+              static_cast<std::size_t>(scene.settings.max_splits_per_step * world.planned_substeps()));  // per substep
     EXPECT_LE(world.fragment_count(), scene.cage.tet_count());
     EXPECT_LE(report.substeps, world.planned_substeps() << scene.settings.energy_halvings) << "step " << i;
     run.halvings += report.energy_halvings;
@@ -588,6 +591,44 @@ std::vector<StabilityCase> load_cases() {
 }
 
 INSTANTIATE_TEST_SUITE_P(Grid, StabilityUnderLoads, ::testing::ValuesIn(load_cases()), load_case_name);
+
+// The ends of the ranges the first grid stops short of: the largest step a scene
+// accepts (dt = 1 s, which a scene takes in substeps of its default max_substep, 1/60
+// s), ν = 0.4999 and E = 1e12 Pa, against the soft compressible corner; each case
+// asserting the energy bound. 10 steps: 600 substeps, 10 s of tumbling and landing.
+// The 1 mm sliver is left out of the stiff corner for its cost alone: it keeps the
+// bound there too, but halves 2,317 substeps in 10 steps, 3.4 s a step (session 23).
+class StabilityAtTheLargestStep : public ::testing::TestWithParam<StabilityCase> {};
+
+std::string largest_step_case_name(const ::testing::TestParamInfo<StabilityCase>& info) {
+  const StabilityCase& c = info.param;
+  return std::string(name(c.scenario)) + (c.youngs > 1e4 ? "_nu04999_E1e12" : "_nu0_E1e3");
+}
+
+TEST_P(StabilityAtTheLargestStep, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
+  const StabilityCase& c = GetParam();
+  StabilityScene scene(c);
+  const EnergyRun run = run_and_check(scene, 10);
+  if (HasFailure()) return;
+  std::printf("dt = 1 s, %-30s peak %9.3g J of %9.3g J available (×%.3g), %ld fragments, %d halvings, %.2g ms/step\n",
+              largest_step_case_name({c, 0}).c_str(), run.highest(), run.available, run.highest() / run.available,
+              static_cast<long>(scene.world->fragment_count()), run.halvings, run.step_ms_mean);
+  EXPECT_LE(run.highest(), 1.01 * run.available + 1e-3);  // never more than there was, +1 % and 1 mJ
+}
+
+std::vector<StabilityCase> largest_step_cases() {
+  std::vector<StabilityCase> out;
+  for (const Scenario s : {Scenario::Sliver, Scenario::Projectile, Scenario::Brittle, Scenario::Tumbling}) {
+    for (const auto& [nu, e] : {std::pair{0.4999, 1e12}, std::pair{0.0, 1e3}}) {
+      if (s == Scenario::Sliver && e > 1e4) continue;
+      out.push_back({.poisson = nu, .youngs = e, .dt = 1.0, .scenario = s, .max_substep = 1.0 / 60.0});
+    }
+  }
+  return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(Grid, StabilityAtTheLargestStep, ::testing::ValuesIn(largest_step_cases()),
+                         largest_step_case_name);
 
 // --- Input validation ------------------------------------------------------------------
 
