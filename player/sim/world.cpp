@@ -178,10 +178,11 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   if (m_settings.collisions) collide(dt, report);
   if (m_settings.exact_when_gaining == ExactResolve::SolveAndContacts) save_motion(m_contact_motion);
   if (m_settings.rotate_on_arcs) rotate_fragments_on_arcs(m_start_positions);
-  const double energy = resolves ? solve_exactly_if_gaining(step, report)
-                        : m_settings.energy_halvings > 0 ? total_energy()
-                                                         : 0.0;
-  if (halves_when_gaining(dt, depth) && energy > substep_energy_limit() && energy > run_energy_limit()) {
+  const bool may_halve = halves_when_gaining(dt, depth);
+  // The exact re-solve measures the substep's energy anyway; without it, only where a
+  // halving may follow.
+  const double energy = resolves ? solve_exactly_if_gaining(step, report) : may_halve ? total_energy() : 0.0;
+  if (may_halve && energy > substep_energy_limit() && energy > run_energy_limit()) {
     // Still above its budget after every repair, and above all the run was given: the
     // substep is too long for what happens in it (WorldSettings::energy_halvings).
     return take_again_as_halves(start, dt, report, depth);
