@@ -123,12 +123,10 @@ void BlockSystem::build_incidence(const Matrix4Xu& tets) {
 
 Mat3 BlockSystem::stiffness_block(Index block, const CorotatedElasticity& elasticity,
                                   const ElementBuffers& elements) const {
-  const bool warped = elements.model == StiffnessModel::Warped;
   Mat3 K = Mat3::Zero();
   for (Index k = m_block_term_start[block]; k < m_block_term_start[block + 1]; ++k) {
     const BlockTerm& term = m_block_terms[k];
-    K += warped ? elasticity.warped_block(term.tet, elements.rotated_gradients[term.tet], term.i, term.j)
-                : Mat3(elements.stiffness[term.tet].block<3, 3>(3 * term.i, 3 * term.j));
+    K += tet_stiffness_block(term.tet, term.i, term.j, elasticity, elements);
   }
   return K;
 }

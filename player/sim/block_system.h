@@ -53,6 +53,14 @@ class BlockSystem {
   void product(const CorotatedElasticity& elasticity, const ElementBuffers& elements, const Eigen::VectorXd& mass,
                double k_scale, double m_scale, const Eigen::VectorXd& x, Eigen::VectorXd& y);
 
+  /// Block (i, j) of tet t's K from an evaluation (one term of A's blocks, before −k_scale).
+  [[nodiscard]] static Mat3 tet_stiffness_block(TetIndex t, int i, int j, const CorotatedElasticity& elasticity,
+                                                const ElementBuffers& elements) {
+    return elements.model == StiffnessModel::Warped
+               ? elasticity.warped_block(t, elements.rotated_gradients[t], i, j)
+               : Mat3(elements.stiffness[t].block<3, 3>(3 * i, 3 * j));
+  }
+
   /// A's 3×3 diagonal block of a free node.
   [[nodiscard]] Mat3 diagonal_block(NodeIndex node, const CorotatedElasticity& elasticity,
                                     const ElementBuffers& elements, double node_mass, double k_scale,

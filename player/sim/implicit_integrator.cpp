@@ -337,6 +337,11 @@ Mat3 ImplicitIntegrator::system_diagonal_block(NodeIndex node) const {
   return m_system.diagonal_block(node, m_elasticity, m_elements, m_mass[node], m_system_k_scale, m_system_m_scale);
 }
 
+Mat3 ImplicitIntegrator::system_tet_block(TetIndex t, int i, int j) const {
+  FISSURE_ASSERT(m_system_form != SystemForm::None);
+  return -m_system_k_scale * BlockSystem::tet_stiffness_block(t, i, j, m_elasticity, m_elements);
+}
+
 void ImplicitIntegrator::multiply_system(const Eigen::VectorXd& x, Eigen::VectorXd& y) {
   FISSURE_ASSERT(m_system_form != SystemForm::None);
   if (m_system_form == SystemForm::Assembled) {

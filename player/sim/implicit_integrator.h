@@ -149,6 +149,10 @@ class ImplicitIntegrator {
   [[nodiscard]] bool has_pinned_nodes() const { return m_system.free_count() != m_pinned.size(); }
   /// A's 3×3 diagonal block of a free node.
   [[nodiscard]] Mat3 system_diagonal_block(NodeIndex node) const;
+  /// Tet t's term in A's block (i, j) of its corners: −k_scale K_t(i, j). A's block of
+  /// two free nodes is the sum of these over the tets holding both, plus the mass term
+  /// on the diagonal.
+  [[nodiscard]] Mat3 system_tet_block(TetIndex t, int i, int j) const;
   /// y = A x.
   void multiply_system(const Eigen::VectorXd& x, Eigen::VectorXd& y);
   /// z ≈ A⁻¹ r with the last solve's preconditioner (the exact factor for the direct solver).

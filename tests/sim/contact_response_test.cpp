@@ -60,16 +60,25 @@ TEST(ContactResponse, APileOfFragmentsStaysOnTheGround) {
   settings.self_collision = true;
   World world({body}, environment, {}, settings);
   double deepest = 0.0;
+  std::size_t cg_iterations = 0, contacts = 0;
   for (int i = 0; i < 120; ++i) {
-    ASSERT_TRUE(world.step().status.ok()) << "step " << i;
+    const StepReport report = world.step();
+    ASSERT_TRUE(report.status.ok()) << "step " << i;
     deepest = std::max(deepest, world.sphere_penetration());
+    cg_iterations += report.contacts.response_iterations;
+    contacts += report.contacts.contacts;
   }
   const std::vector<double>& radius = world.bodies()[0].spheres.radius;
   const double smallest = *std::min_element(radius.begin(), radius.end());
-  std::printf("%u fragments; deepest sphere penetration %.3g m, smallest radius %.3g m\n", world.fragment_count(),
-              deepest, smallest);
+  std::printf("%u fragments; deepest sphere penetration %.3g m, smallest radius %.3g m; %zu contacts and %zu "
+              "response CG iterations in 120 steps\n",
+              world.fragment_count(), deepest, smallest, contacts, cg_iterations);
   EXPECT_GT(world.fragment_count(), cage.tet_count() / 2);  // it did shatter into a pile
   EXPECT_LT(deepest, 0.5 * smallest);
+  // The work: the response's CG iterations, preconditioned with each small fragment's
+  // dense block, its contacts included (block_jacobi.h). Measured 6,392 (CHOLMOD) and
+  // 6,232 (portable); with the bodies' own preconditioners alone, 11,122.
+  EXPECT_LT(cg_iterations, 8000u);
 }
 
 

@@ -1,5 +1,6 @@
 // The step's numerical kernels: the fast polar rotation, the closed-form warped
-// stiffness product, conjugate gradients and the sparse Cholesky factor.
+// stiffness product, conjugate gradients, the sparse Cholesky factor and the contact
+// response's block-Jacobi preconditioner.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 
 #include <tbb/global_control.h>
 
+#include "player/sim/block_jacobi.h"
 #include "player/sim/conjugate_gradient.h"
 #include "player/sim/corotated_elasticity.h"
 #include "player/sim/sparse_cholesky.h"
@@ -286,6 +288,94 @@ TEST(SparseCholesky, TwoThreadSolvesAreExactAndIndependentOfTheThreadCount) {
   EXPECT_FALSE(small_cholesky.solves_on_two_threads());
 }
 #endif
+
+
+/// A random symmetric positive-definite matrix of `nodes` 3×3 blocks.
+Eigen::MatrixXd random_spd(std::mt19937& rng, Eigen::Index nodes) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::MatrixXd B(3 * nodes, 3 * nodes);
+  for (Eigen::Index k = 0; k < B.size(); ++k) B.data()[k] = u(rng);
+  return B * B.transpose() + Eigen::MatrixXd::Identity(3 * nodes, 3 * nodes);
+}
+
+/// Groups of 2 nodes (fixed size), 5 nodes (dynamic) and 1 node, and node 4 in none.
+std::vector<std::vector<Eigen::Index>> mixed_groups() { return {{9, 0}, {3, 6, 15, 18, 21}, {24}}; }
+
+TEST(BlockJacobi, SolvesEachGroupsBlockExactlyAndLeavesOtherRowsAlone) {
+  std::mt19937 rng(3);
+  const Eigen::MatrixXd A = random_spd(rng, 9);
+  BlockJacobi blocks;
+  blocks.set_groups(mixed_groups(), A.rows());
+  for (Eigen::Index a = 0; a < 9; ++a) {
+    for (Eigen::Index b = 0; b < 9; ++b) blocks.add(3 * a, 3 * b, A.block<3, 3>(3 * a, 3 * b));
+  }
+  blocks.keep_as_base();
+  blocks.factor();
+  const Eigen::VectorXd r = Eigen::VectorXd::LinSpaced(A.rows(), -1.0, 2.0);
+  Eigen::VectorXd z = Eigen::VectorXd::Constant(A.rows(), 7.0);
+  blocks.solve(r, z);
+  for (const std::vector<Eigen::Index>& group : mixed_groups()) {
+    const auto n = static_cast<Eigen::Index>(group.size());
+    Eigen::MatrixXd block(3 * n, 3 * n);
+    Eigen::VectorXd local(3 * n), expected_z(3 * n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      local.segment<3>(3 * i) = r.segment<3>(group[i]);
+      for (Eigen::Index j = 0; j < n; ++j) block.block<3, 3>(3 * i, 3 * j) = A.block<3, 3>(group[i], group[j]);
+    }
+    const Eigen::VectorXd expected = block.llt().solve(local);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      EXPECT_LT((z.segment<3>(group[i]) - expected.segment<3>(3 * i)).norm(), 1e-12 * expected.norm()) << "row " << group[i];
+    }
+  }
+  EXPECT_FALSE(blocks.covers(12));
+  EXPECT_EQ(z.segment<3>(12), Vec3::Constant(7.0));  // node 4 is in no group
+}
+
+TEST(BlockJacobi, AnOuterProductTermEqualsItsPairsAndResetReturnsToTheBase) {
+  std::mt19937 rng(5);
+  const Eigen::MatrixXd A = random_spd(rng, 9);
+  BlockJacobi by_pairs, by_outer;
+  for (BlockJacobi* blocks : {&by_pairs, &by_outer}) {
+    blocks->set_groups(mixed_groups(), A.rows());
+    for (Eigen::Index a = 0; a < 9; ++a) blocks->add(3 * a, 3 * a, A.block<3, 3>(3 * a, 3 * a));
+    blocks->keep_as_base();
+    blocks->add(0, 0, 1e6 * Mat3::Identity());  // dropped by reset()
+    blocks->reset();
+  }
+  // A contact row across groups: entries in the fixed group, the dynamic one and node 4.
+  const std::vector<Eigen::Index> rows{0, 9, 3, 15, 12};
+  const std::vector<double> weights{0.25, 0.75, -0.5, -0.5, 1.0};
+  const Vec3 n = Vec3(1.0, 2.0, 2.0) / 3.0;
+  const Mat3 term = 3.0 * n * n.transpose() + 0.5 * (Mat3::Identity() - n * n.transpose());
+  by_outer.add_outer(rows, weights, term);
+  for (std::size_t e = 0; e < rows.size(); ++e) {
+    for (std::size_t f = 0; f < rows.size(); ++f) by_pairs.add(rows[e], rows[f], weights[e] * weights[f] * term);
+  }
+  by_pairs.factor();
+  by_outer.factor();
+  const Eigen::VectorXd r = Eigen::VectorXd::LinSpaced(A.rows(), 1.0, 3.0);
+  Eigen::VectorXd z_pairs = Eigen::VectorXd::Zero(A.rows()), z_outer = z_pairs;
+  by_pairs.solve(r, z_pairs);
+  by_outer.solve(r, z_outer);
+  EXPECT_LT((z_pairs - z_outer).norm(), 1e-14 * z_pairs.norm());
+  EXPECT_LT(std::abs(z_outer[0]), 1.0);  // the 1e6 added before reset() is gone
+}
+
+TEST(BlockJacobi, ABlockThatIsNotPositiveDefiniteFallsBackToItsDiagonal) {
+  BlockJacobi blocks;
+  blocks.set_groups({{0, 3}}, 6);
+  // [I 3I; 3I 4I]: its determinant per axis is 4 − 9 < 0.
+  blocks.add(0, 0, Mat3::Identity());
+  blocks.add(3, 3, 4.0 * Mat3::Identity());
+  blocks.add(0, 3, 3.0 * Mat3::Identity());
+  blocks.add(3, 0, 3.0 * Mat3::Identity());
+  blocks.factor();
+  const Eigen::VectorXd r = Eigen::VectorXd::Ones(6);
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(6);
+  blocks.solve(r, z);
+  EXPECT_EQ(z.head<3>(), Vec3::Ones());
+  EXPECT_EQ(z.tail<3>(), Vec3::Constant(0.25));
+}
 
 }  // namespace
 }  // namespace fissure::sim
