@@ -2,11 +2,17 @@
 
 #include <array>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "common/assert.h"
 
 namespace fissure::sim {
 
 namespace {
+
+/// Fixed-size groups per task: each is a few microseconds of work.
+constexpr std::size_t kGroupsPerTask = 64;
 
 /// Zero blocks sized for `nodes` nodes; padded with the identity where the matrix is
 /// larger (fixed-size groups), so the padding solves to itself and is never read.
@@ -20,22 +26,27 @@ Matrix empty_block(std::size_t nodes) {
   return block;
 }
 
+/// Every group on its own (one writer per row of z), so in parallel and independent of
+/// the thread count.
 template <typename Set>
 void solve_set(const Set& set, const Eigen::VectorXd& r, Eigen::VectorXd& z) {
   constexpr bool kFixed = Set::Matrix::RowsAtCompileTime != Eigen::Dynamic;
   using Vector = Eigen::Matrix<double, Set::Matrix::RowsAtCompileTime, 1>;
-  Vector local, answer;
-  for (std::size_t g = 0; g < set.rows.size(); ++g) {
-    const std::vector<Eigen::Index>& rows = set.rows[g];
-    local.setZero(set.block[g].rows());
-    for (std::size_t k = 0; k < rows.size(); ++k) local.template segment<3>(3 * k) = r.segment<3>(rows[k]);
-    if constexpr (kFixed) {
-      answer.noalias() = set.inverse[g] * local;
-    } else {
-      answer = set.factors[g].solve(local);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, set.rows.size(), kGroupsPerTask),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+    Vector local, answer;
+    for (std::size_t g = range.begin(); g != range.end(); ++g) {
+      const std::vector<Eigen::Index>& rows = set.rows[g];
+      local.setZero(set.block[g].rows());
+      for (std::size_t k = 0; k < rows.size(); ++k) local.template segment<3>(3 * k) = r.segment<3>(rows[k]);
+      if constexpr (kFixed) {
+        answer.noalias() = set.inverse[g] * local;
+      } else {
+        answer = set.factors[g].solve(local);
+      }
+      for (std::size_t k = 0; k < rows.size(); ++k) z.segment<3>(rows[k]) = answer.template segment<3>(3 * k);
     }
-    for (std::size_t k = 0; k < rows.size(); ++k) z.segment<3>(rows[k]) = answer.template segment<3>(3 * k);
-  }
+  });
 }
 
 /// Its diagonal where a block is not positive definite.
@@ -108,16 +119,22 @@ void BlockJacobi::reset() {
 }
 
 void BlockJacobi::factor() {
-  for (std::size_t g = 0; g < m_fixed.block.size(); ++g) {
-    const auto& block = m_fixed.block[g];
-    Eigen::LLT<std::decay_t<decltype(block)>> factor(block);
-    if (factor.info() != Eigen::Success) factor.compute(diagonal_of(block));
-    m_fixed.inverse[g] = factor.solve(std::decay_t<decltype(block)>::Identity());
-  }
-  for (std::size_t g = 0; g < m_dynamic.block.size(); ++g) {
-    m_dynamic.factors[g].compute(m_dynamic.block[g]);
-    if (m_dynamic.factors[g].info() != Eigen::Success) m_dynamic.factors[g].compute(diagonal_of(m_dynamic.block[g]));
-  }
+  using Fixed = decltype(m_fixed)::Matrix;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_fixed.block.size(), kGroupsPerTask),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t g = range.begin(); g != range.end(); ++g) {
+      Eigen::LLT<Fixed> factor(m_fixed.block[g]);
+      if (factor.info() != Eigen::Success) factor.compute(diagonal_of(m_fixed.block[g]));
+      m_fixed.inverse[g] = factor.solve(Fixed::Identity());
+    }
+  });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_dynamic.block.size(), 1),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t g = range.begin(); g != range.end(); ++g) {
+      m_dynamic.factors[g].compute(m_dynamic.block[g]);
+      if (m_dynamic.factors[g].info() != Eigen::Success) m_dynamic.factors[g].compute(diagonal_of(m_dynamic.block[g]));
+    }
+  });
 }
 
 void BlockJacobi::solve(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
