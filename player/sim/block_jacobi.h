@@ -8,7 +8,6 @@
 #include <span>
 #include <vector>
 
-
 #include <Eigen/Cholesky>
 
 #include "common/types.h"
