@@ -83,13 +83,7 @@ void BlockJacobi::set_groups(std::vector<std::vector<Eigen::Index>> groups, Eige
 }
 
 void BlockJacobi::add(Eigen::Index row_a, Eigen::Index row_b, const Mat3& term) {
-  const Slot a = m_slot[row_a / 3], b = m_slot[row_b / 3];
-  if (a.group == kNone || a.group != b.group || a.fixed != b.fixed) return;
-  if (a.fixed) {
-    m_fixed.block[a.group].block<3, 3>(3 * a.local, 3 * b.local) += term;
-  } else {
-    m_dynamic.block[a.group].block<3, 3>(3 * a.local, 3 * b.local) += term;
-  }
+  accumulate(m_slot[row_a / 3], m_slot[row_b / 3], term);
 }
 
 void BlockJacobi::add_outer(std::span<const Eigen::Index> rows, std::span<const double> weights, const Mat3& term) {
@@ -99,14 +93,19 @@ void BlockJacobi::add_outer(std::span<const Eigen::Index> rows, std::span<const 
   for (std::size_t e = 0; e < rows.size(); ++e) {
     if (slots[e].group == kNone) continue;
     for (std::size_t f = 0; f < rows.size(); ++f) {
-      if (slots[f].group != slots[e].group || slots[f].fixed != slots[e].fixed) continue;
-      const Mat3 scaled = weights[e] * weights[f] * term;
-      if (slots[e].fixed) {
-        m_fixed.block[slots[e].group].block<3, 3>(3 * slots[e].local, 3 * slots[f].local) += scaled;
-      } else {
-        m_dynamic.block[slots[e].group].block<3, 3>(3 * slots[e].local, 3 * slots[f].local) += scaled;
+      if (slots[f].group == slots[e].group && slots[f].fixed == slots[e].fixed) {
+        accumulate(slots[e], slots[f], weights[e] * weights[f] * term);
       }
     }
+  }
+}
+
+void BlockJacobi::accumulate(const Slot& a, const Slot& b, const Mat3& term) {
+  if (a.group == kNone || a.group != b.group || a.fixed != b.fixed) return;
+  if (a.fixed) {
+    m_fixed.block[a.group].block<3, 3>(3 * a.local, 3 * b.local) += term;
+  } else {
+    m_dynamic.block[a.group].block<3, 3>(3 * a.local, 3 * b.local) += term;
   }
 }
 

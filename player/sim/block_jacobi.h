@@ -58,6 +58,8 @@ class BlockJacobi {
     Index local = 0;      ///< the node's place in its group
     bool fixed = false;
   };
+  /// Adds `term` to the block (a, b) if both slots are in one group.
+  void accumulate(const Slot& a, const Slot& b, const Mat3& term);
   template <typename F>
   void for_each_set(F&& f) {
     f(m_fixed);
