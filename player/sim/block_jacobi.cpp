@@ -1,6 +1,9 @@
 #include "player/sim/block_jacobi.h"
 
+#include <algorithm>
 #include <array>
+#include <limits>
+#include <type_traits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -83,30 +86,69 @@ void BlockJacobi::set_groups(std::vector<std::vector<Eigen::Index>> groups, Eige
 }
 
 void BlockJacobi::add(Eigen::Index row_a, Eigen::Index row_b, const Mat3& term) {
-  accumulate(m_slot[row_a / 3], m_slot[row_b / 3], term);
-}
-
-void BlockJacobi::add_outer(std::span<const Eigen::Index> rows, std::span<const double> weights, const Mat3& term) {
-  FISSURE_ASSERT(rows.size() == weights.size() && rows.size() <= 8);
-  std::array<Slot, 8> slots;
-  for (std::size_t e = 0; e < rows.size(); ++e) slots[e] = m_slot[rows[e] / 3];
-  for (std::size_t e = 0; e < rows.size(); ++e) {
-    if (slots[e].group == kNone) continue;
-    for (std::size_t f = 0; f < rows.size(); ++f) {
-      if (slots[f].group == slots[e].group && slots[f].fixed == slots[e].fixed) {
-        accumulate(slots[e], slots[f], weights[e] * weights[f] * term);
-      }
-    }
-  }
-}
-
-void BlockJacobi::accumulate(const Slot& a, const Slot& b, const Mat3& term) {
+  const Slot &a = m_slot[row_a / 3], &b = m_slot[row_b / 3];
   if (a.group == kNone || a.group != b.group || a.fixed != b.fixed) return;
   if (a.fixed) {
     m_fixed.block[a.group].block<3, 3>(3 * a.local, 3 * b.local) += term;
   } else {
     m_dynamic.block[a.group].block<3, 3>(3 * a.local, 3 * b.local) += term;
   }
+}
+
+template <typename F>
+void BlockJacobi::for_each_outer_pair(std::span<const OuterRows> terms, F&& f) const {
+  for (std::size_t k = 0; k < terms.size(); ++k) {
+    const OuterRows& term = terms[k];
+    FISSURE_ASSERT(term.count >= 0 && term.count <= 8);
+    const auto count = static_cast<std::size_t>(std::clamp(term.count, 0, 8));
+    std::array<Slot, 8> slots;
+    for (std::size_t e = 0; e < count; ++e) slots[e] = m_slot[term.rows[e] / 3];
+    for (std::size_t e = 0; e < count; ++e) {
+      if (slots[e].group == kNone) continue;
+      for (std::size_t g = 0; g < count; ++g) {
+        if (slots[g].group == slots[e].group && slots[g].fixed == slots[e].fixed) {
+          f(k, slots[e], slots[g], term.weights[e] * term.weights[g]);
+        }
+      }
+    }
+  }
+}
+
+void BlockJacobi::set_outer_rows(std::span<const OuterRows> terms) {
+  FISSURE_ASSERT(terms.size() <= std::numeric_limits<std::uint32_t>::max());
+  for_each_set([](auto& set) { set.pair_start.assign(set.rows.size() + 1, 0); });
+  for_each_outer_pair(terms, [&](std::size_t, const Slot& a, const Slot&, double) {
+    ++(a.fixed ? m_fixed.pair_start : m_dynamic.pair_start)[a.group + 1];
+  });
+  for_each_set([](auto& set) {
+    for (std::size_t g = 0; g + 1 < set.pair_start.size(); ++g) set.pair_start[g + 1] += set.pair_start[g];
+    set.pairs.resize(set.pair_start.back());
+  });
+  std::vector<std::size_t> fixed_next(m_fixed.pair_start.begin(), m_fixed.pair_start.end() - 1);
+  std::vector<std::size_t> dynamic_next(m_dynamic.pair_start.begin(), m_dynamic.pair_start.end() - 1);
+  for_each_outer_pair(terms, [&](std::size_t k, const Slot& a, const Slot& b, double weight) {
+    auto& set_pairs = a.fixed ? m_fixed.pairs : m_dynamic.pairs;
+    std::size_t& next = (a.fixed ? fixed_next : dynamic_next)[a.group];
+    set_pairs[next++] = {static_cast<std::uint32_t>(k), static_cast<std::uint16_t>(a.local),
+                         static_cast<std::uint16_t>(b.local), weight};
+  });
+}
+
+void BlockJacobi::set_outer_terms(std::span<const Mat3> terms) {
+  for_each_set([&](auto& set) {
+    constexpr bool kFixed = std::remove_reference_t<decltype(set)>::Matrix::RowsAtCompileTime != Eigen::Dynamic;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, set.rows.size(), kFixed ? kGroupsPerTask : 1),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+      for (std::size_t g = range.begin(); g != range.end(); ++g) {
+        set.block[g] = set.base[g];
+        for (std::size_t p = set.pair_start[g]; p < set.pair_start[g + 1]; ++p) {
+          const OuterPair& pair = set.pairs[p];
+          FISSURE_ASSERT(pair.term < terms.size());
+          set.block[g].template block<3, 3>(3 * pair.a, 3 * pair.b) += pair.weight * terms[pair.term];
+        }
+      }
+    });
+  });
 }
 
 void BlockJacobi::keep_as_base() {

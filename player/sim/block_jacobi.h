@@ -5,6 +5,8 @@
 /// fragment and per projectile, with the contacts' terms inside the group added, which
 /// the bodies' own preconditioners cannot see (contact_response.cpp).
 
+#include <array>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -24,13 +26,25 @@ class BlockJacobi {
   /// Adds `term` to the 3×3 block (row_a, row_b) if both rows are in one group;
   /// otherwise it is outside every block and dropped.
   void add(Eigen::Index row_a, Eigen::Index row_b, const Mat3& term);
-  /// Adds wₑ w_f `term` to the block (rows[e], rows[f]) of every pair e, f in one group:
-  /// Gᵀ T G for a G that takes Σₑ wₑ x(rows[e]), as add() would pair by pair.
-  void add_outer(std::span<const Eigen::Index> rows, std::span<const double> weights, const Mat3& term);
   /// Keeps the blocks as they are now, as what reset() returns to.
   void keep_as_base();
   /// Back to the blocks as kept by keep_as_base().
   void reset();
+
+  /// The rows of a term Gᵀ T G, for a G that takes Σₑ wₑ x(rows[e]).
+  struct OuterRows {
+    std::array<Eigen::Index, 8> rows{};
+    std::array<double, 8> weights{};
+    int count = 0;
+  };
+  /// Finds, once, the pairs e, f of each term's rows that fall in one group, listed per
+  /// group, so that set_outer_terms() can add many terms' blocks in parallel.
+  void set_outer_rows(std::span<const OuterRows> terms);
+  /// reset(), then adds wₑ w_f terms[k] to the block (rows[e], rows[f]) of every such
+  /// pair of term k (Gₖᵀ Tₖ Gₖ where it falls inside the blocks), as add() would pair by
+  /// pair. Each group sums its terms in their order, so the blocks do not depend on the
+  /// thread count. `terms` matches the last set_outer_rows().
+  void set_outer_terms(std::span<const Mat3> terms);
   /// Inverts every block. A block that is not positive definite (it cannot be from a
   /// positive-definite operator, short of rounding) is replaced by its diagonal.
   void factor();
@@ -45,6 +59,13 @@ class BlockJacobi {
   /// size, and a shattered body has hundreds of such groups. Larger groups keep their
   /// Cholesky factors (the inverse would cost twice the factor's n³/3 to make).
   static constexpr int kFixedNodes = 4;
+  /// One pair of a term's rows inside a group: weight · terms[term] goes to the group's
+  /// 3×3 block (a, b).
+  struct OuterPair {
+    std::uint32_t term;
+    std::uint16_t a, b;
+    double weight;
+  };
   template <int N>
   struct Groups {
     using Matrix = Eigen::Matrix<double, N, N>;
@@ -52,14 +73,17 @@ class BlockJacobi {
     std::vector<Matrix> base, block;
     std::vector<Matrix> inverse;              ///< fixed-size groups
     std::vector<Eigen::LLT<Matrix>> factors;  ///< dynamic-size groups
+    std::vector<std::size_t> pair_start;      ///< group g's pairs: [pair_start[g], pair_start[g + 1])
+    std::vector<OuterPair> pairs;
   };
   struct Slot {
     Index group = kNone;  ///< in m_fixed if `fixed`, else in m_dynamic
     Index local = 0;      ///< the node's place in its group
     bool fixed = false;
   };
-  /// Adds `term` to the block (a, b) if both slots are in one group.
-  void accumulate(const Slot& a, const Slot& b, const Mat3& term);
+  /// f(term, a, b, wₑ w_f) for every pair of a term's rows inside one group, in term order.
+  template <typename F>
+  void for_each_outer_pair(std::span<const OuterRows> terms, F&& f) const;
   template <typename F>
   void for_each_set(F&& f) {
     f(m_fixed);

@@ -4,6 +4,9 @@
 #include <array>
 #include <cmath>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "player/sim/block_jacobi.h"
 #include "player/sim/conjugate_gradient.h"
 
@@ -40,6 +43,9 @@ constexpr double kFrictionPenaltyRatio = 4.0;
 /// nodes above it for most of the run, and with it the whole body's own preconditioner:
 /// the response took 3× the CG iterations of a run where no fragment was above it.
 constexpr Index kDenseFragmentNodes = 64;
+
+/// Contact rows (or nodes) per parallel task: each is a few dozen flops.
+constexpr std::size_t kRowsPerTask = 512;
 
 /// G x = Σ weight · x.segment<3>(row): one side's point velocity, signed (b negative).
 struct Entry {
@@ -124,22 +130,39 @@ class JointSystem {
       m_rows.push_back(row);
     }
     build_blocks();
+    build_node_entries();
   }
 
   [[nodiscard]] Eigen::Index size() const { return m_size; }
   std::vector<Row>& rows() { return m_rows; }
   [[nodiscard]] Index row_of(std::size_t contact) const { return m_contact_row[contact]; }
 
-  /// y = (𝒜 + Σ_active κ n nᵀ ⊗ G + Σ η Gᵀ T G) x.
+  /// y = (𝒜 + Σ_active κ n nᵀ ⊗ G + Σ η Gᵀ T G) x. Each row's force in parallel, then
+  /// each node's share of them in row order: the sums a serial pass over the rows makes,
+  /// whatever the thread count.
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) {
     multiply_mass(x, y);
-    for (const Row& row : m_rows) {
-      const Vec3 g = row.apply(x);
-      const double gn = row.normal.dot(g);
-      Vec3 f = row.eta * (g - gn * row.normal);
-      if (row.active) f += row.kappa * gn * row.normal;
-      row.scatter(f, y);
-    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_rows.size(), kRowsPerTask),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+      for (std::size_t k = range.begin(); k != range.end(); ++k) {
+        const Row& row = m_rows[k];
+        const Vec3 g = row.apply(x);
+        const double gn = row.normal.dot(g);
+        Vec3 f = row.eta * (g - gn * row.normal);
+        if (row.active) f += row.kappa * gn * row.normal;
+        m_row_forces[k] = f;
+      }
+    });
+    const std::size_t nodes = m_node_entry_start.size() - 1;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nodes, kRowsPerTask),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+      for (std::size_t node = range.begin(); node != range.end(); ++node) {
+        for (std::size_t i = m_node_entry_start[node]; i < m_node_entry_start[node + 1]; ++i) {
+          const NodeEntry& entry = m_node_entries[i];
+          y.segment<3>(3 * static_cast<Eigen::Index>(node)) += entry.weight * m_row_forces[entry.row];
+        }
+      }
+    });
   }
 
   /// y = 𝒜 x: the bodies' systems and the projectiles' masses, without the contacts.
@@ -174,19 +197,15 @@ class JointSystem {
   /// The dense blocks of the current operator: the base (system and masses) plus each
   /// row's terms between entries in one block.
   void update_blocks() {
-    m_blocks.reset();
-    for (const Row& row : m_rows) {
-      const Mat3 nn = row.normal * row.normal.transpose();
-      const Mat3 term = row.eta * (Mat3::Identity() - nn) + (row.active ? row.kappa : 0.0) * nn;
-      std::array<Eigen::Index, 8> entry_rows{};
-      std::array<double, 8> weights{};
-      for (int e = 0; e < row.count; ++e) {
-        entry_rows[e] = row.entries[e].row;
-        weights[e] = row.entries[e].weight;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_rows.size(), kRowsPerTask),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+      for (std::size_t k = range.begin(); k != range.end(); ++k) {
+        const Row& row = m_rows[k];
+        const Mat3 nn = row.normal * row.normal.transpose();
+        m_row_terms[k] = row.eta * (Mat3::Identity() - nn) + (row.active ? row.kappa : 0.0) * nn;
       }
-      const auto count = static_cast<std::size_t>(row.count);
-      m_blocks.add_outer(std::span(entry_rows).first(count), std::span(weights).first(count), term);
-    }
+    });
+    m_blocks.set_outer_terms(m_row_terms);
     m_blocks.factor();
   }
 
@@ -247,6 +266,34 @@ class JointSystem {
       if (r >= 0) m_blocks.add(r, r, m_projectiles[j].mass * Mat3::Identity());
     }
     m_blocks.keep_as_base();
+    std::vector<BlockJacobi::OuterRows> outer(m_rows.size());
+    for (std::size_t k = 0; k < m_rows.size(); ++k) {
+      outer[k].count = m_rows[k].count;
+      for (int e = 0; e < m_rows[k].count; ++e) {
+        outer[k].rows[e] = m_rows[k].entries[e].row;
+        outer[k].weights[e] = m_rows[k].entries[e].weight;
+      }
+    }
+    m_blocks.set_outer_rows(outer);
+    m_row_terms.resize(m_rows.size());
+  }
+
+  /// Each node's entries in the rows, in row order (multiply()'s second pass).
+  void build_node_entries() {
+    m_node_entry_start.assign(static_cast<std::size_t>(m_size / 3) + 1, 0);
+    for (const Row& row : m_rows) {
+      for (int e = 0; e < row.count; ++e) ++m_node_entry_start[row.entries[e].row / 3 + 1];
+    }
+    for (std::size_t n = 0; n + 1 < m_node_entry_start.size(); ++n) m_node_entry_start[n + 1] += m_node_entry_start[n];
+    m_node_entries.resize(m_node_entry_start.back());
+    std::vector<std::size_t> next(m_node_entry_start.begin(), m_node_entry_start.end() - 1);
+    for (std::size_t k = 0; k < m_rows.size(); ++k) {
+      for (int e = 0; e < m_rows[k].count; ++e) {
+        const Entry& entry = m_rows[k].entries[e];
+        m_node_entries[next[entry.row / 3]++] = {k, entry.weight};
+      }
+    }
+    m_row_forces.resize(m_rows.size());
   }
 
   /// Body bi's small fragments as groups of their free nodes' rows, in node order.
@@ -397,6 +444,15 @@ class JointSystem {
   std::vector<Row> m_rows;
   std::vector<Index> m_contact_row;
   BlockJacobi m_blocks;                 ///< small fragments' and projectiles' blocks
+  std::vector<Mat3> m_row_terms;        ///< each row's κ n nᵀ (if active) + η (I − n nᵀ)
+  /// One row's entry at a node: multiply() adds weight · m_row_forces[row] there.
+  struct NodeEntry {
+    std::size_t row;
+    double weight;
+  };
+  std::vector<std::size_t> m_node_entry_start;  ///< node n's entries: [start[n], start[n + 1])
+  std::vector<NodeEntry> m_node_entries;
+  std::vector<Vec3> m_row_forces;       ///< multiply()'s scratch
   std::vector<bool> m_body_needs_own;   ///< per body: a fragment too large for a block
   Eigen::VectorXd m_in, m_out;  // scratch for the bodies' blocks
   std::vector<Index> m_node_fragment;  // scratch for balance_fragments

@@ -347,9 +347,16 @@ TEST(BlockJacobi, AnOuterProductTermEqualsItsPairsAndResetReturnsToTheBase) {
   const std::vector<double> weights{0.25, 0.75, -0.5, -0.5, 1.0};
   const Vec3 n = Vec3(1.0, 2.0, 2.0) / 3.0;
   const Mat3 term = 3.0 * n * n.transpose() + 0.5 * (Mat3::Identity() - n * n.transpose());
-  by_outer.add_outer(rows, weights, term);
+  BlockJacobi::OuterRows outer;
+  outer.count = static_cast<int>(rows.size());
+  std::copy(rows.begin(), rows.end(), outer.rows.begin());
+  std::copy(weights.begin(), weights.end(), outer.weights.begin());
+  // Twice (the same rows, the second term 2×), as one set of blocks would have them.
+  by_outer.set_outer_rows(std::vector{outer, outer});
+  by_outer.add(0, 0, 1e6 * Mat3::Identity());  // set_outer_terms() starts from the base too
+  by_outer.set_outer_terms(std::vector<Mat3>{term, 2.0 * term});
   for (std::size_t e = 0; e < rows.size(); ++e) {
-    for (std::size_t f = 0; f < rows.size(); ++f) by_pairs.add(rows[e], rows[f], weights[e] * weights[f] * term);
+    for (std::size_t f = 0; f < rows.size(); ++f) by_pairs.add(rows[e], rows[f], 3.0 * weights[e] * weights[f] * term);
   }
   by_pairs.factor();
   by_outer.factor();
