@@ -47,6 +47,19 @@ constexpr Index kDenseFragmentNodes = 64;
 /// Contact rows (or nodes) per parallel task: each is a few dozen flops.
 constexpr std::size_t kRowsPerTask = 512;
 
+/// f(first, last) over [0, count) in parallel chunks of at least kRowsPerTask; in this
+/// thread when that is one chunk (a scene with a few dozen contacts pays no task
+/// scheduling per product).
+template <typename F>
+void for_row_chunks(std::size_t count, const F& f) {
+  if (count <= kRowsPerTask) {
+    f(std::size_t{0}, count);
+    return;
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, kRowsPerTask),
+                    [&](const tbb::blocked_range<std::size_t>& range) { f(range.begin(), range.end()); });
+}
+
 /// G x = Σ weight · x.segment<3>(row): one side's point velocity, signed (b negative).
 struct Entry {
   Eigen::Index row;
@@ -142,9 +155,8 @@ class JointSystem {
   /// whatever the thread count.
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) {
     multiply_mass(x, y);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_rows.size(), kRowsPerTask),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-      for (std::size_t k = range.begin(); k != range.end(); ++k) {
+    for_row_chunks(m_rows.size(), [&](std::size_t first, std::size_t last) {
+      for (std::size_t k = first; k != last; ++k) {
         const Row& row = m_rows[k];
         const Vec3 g = row.apply(x);
         const double gn = row.normal.dot(g);
@@ -153,13 +165,11 @@ class JointSystem {
         m_row_forces[k] = f;
       }
     });
-    const std::size_t nodes = m_node_entry_start.size() - 1;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nodes, kRowsPerTask),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-      for (std::size_t node = range.begin(); node != range.end(); ++node) {
-        for (std::size_t i = m_node_entry_start[node]; i < m_node_entry_start[node + 1]; ++i) {
-          const NodeEntry& entry = m_node_entries[i];
-          y.segment<3>(3 * static_cast<Eigen::Index>(node)) += entry.weight * m_row_forces[entry.row];
+    for_row_chunks(m_entry_nodes.size(), [&](std::size_t first, std::size_t last) {
+      for (std::size_t n = first; n != last; ++n) {
+        auto yn = y.segment<3>(m_entry_nodes[n]);
+        for (std::size_t i = m_node_entry_start[n]; i < m_node_entry_start[n + 1]; ++i) {
+          yn += m_node_entries[i].weight * m_row_forces[m_node_entries[i].row];
         }
       }
     });
@@ -197,9 +207,8 @@ class JointSystem {
   /// The dense blocks of the current operator: the base (system and masses) plus each
   /// row's terms between entries in one block.
   void update_blocks() {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m_rows.size(), kRowsPerTask),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-      for (std::size_t k = range.begin(); k != range.end(); ++k) {
+    for_row_chunks(m_rows.size(), [&](std::size_t first, std::size_t last) {
+      for (std::size_t k = first; k != last; ++k) {
         const Row& row = m_rows[k];
         const Mat3 nn = row.normal * row.normal.transpose();
         m_row_terms[k] = row.eta * (Mat3::Identity() - nn) + (row.active ? row.kappa : 0.0) * nn;
@@ -278,19 +287,27 @@ class JointSystem {
     m_row_terms.resize(m_rows.size());
   }
 
-  /// Each node's entries in the rows, in row order (multiply()'s second pass).
+  /// The nodes the rows touch, and each one's entries in the rows in row order
+  /// (multiply()'s second pass).
   void build_node_entries() {
-    m_node_entry_start.assign(static_cast<std::size_t>(m_size / 3) + 1, 0);
+    std::vector<std::size_t> count(static_cast<std::size_t>(m_size / 3), 0);
     for (const Row& row : m_rows) {
-      for (int e = 0; e < row.count; ++e) ++m_node_entry_start[row.entries[e].row / 3 + 1];
+      for (int e = 0; e < row.count; ++e) ++count[row.entries[e].row / 3];
     }
-    for (std::size_t n = 0; n + 1 < m_node_entry_start.size(); ++n) m_node_entry_start[n + 1] += m_node_entry_start[n];
+    std::vector<std::size_t> place(count.size(), 0);
+    m_entry_nodes.clear();
+    m_node_entry_start.assign(1, 0);
+    for (std::size_t node = 0; node < count.size(); ++node) {
+      if (count[node] == 0) continue;
+      place[node] = m_node_entry_start.back();
+      m_entry_nodes.push_back(3 * static_cast<Eigen::Index>(node));
+      m_node_entry_start.push_back(m_node_entry_start.back() + count[node]);
+    }
     m_node_entries.resize(m_node_entry_start.back());
-    std::vector<std::size_t> next(m_node_entry_start.begin(), m_node_entry_start.end() - 1);
     for (std::size_t k = 0; k < m_rows.size(); ++k) {
       for (int e = 0; e < m_rows[k].count; ++e) {
         const Entry& entry = m_rows[k].entries[e];
-        m_node_entries[next[entry.row / 3]++] = {k, entry.weight};
+        m_node_entries[place[entry.row / 3]++] = {k, entry.weight};
       }
     }
     m_row_forces.resize(m_rows.size());
@@ -450,7 +467,8 @@ class JointSystem {
     std::size_t row;
     double weight;
   };
-  std::vector<std::size_t> m_node_entry_start;  ///< node n's entries: [start[n], start[n + 1])
+  std::vector<Eigen::Index> m_entry_nodes;      ///< the first rows of the nodes the rows touch
+  std::vector<std::size_t> m_node_entry_start;  ///< m_entry_nodes[n]'s entries: [start[n], start[n + 1])
   std::vector<NodeEntry> m_node_entries;
   std::vector<Vec3> m_row_forces;       ///< multiply()'s scratch
   std::vector<bool> m_body_needs_own;   ///< per body: a fragment too large for a block
