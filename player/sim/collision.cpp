@@ -5,7 +5,6 @@
 #include <map>
 #include <tuple>
 
-#include "common/assert.h"
 #include "player/sim/contact_response.h"
 
 namespace fissure::sim {
@@ -336,10 +335,10 @@ StepContacts::StepContacts(std::span<CollisionBody> bodies, const Environment& e
     }
     const auto [inelastic, elastic] = contact_targets(c, approach, settings);
     m_counts.restituting += elastic > inelastic ? 1 : 0;
+    m_approach.push_back(approach);
     m_inelastic_target.push_back(inelastic);
     m_elastic_target.push_back(elastic);
     m_keys.push_back(key(c));
-    m_warm_start.push_back(warm_start);
     m_constraints.push_back({c.a, c.b, c.normal, elastic, c.friction, warm_start});
   }
 }
@@ -351,11 +350,14 @@ ContactCounts StepContacts::respond(double restitution_share) {
   for (std::size_t k = 0; k < m_constraints.size(); ++k) {
     ContactConstraint& c = m_constraints[k];
     // Exact at shares 0 and 1.
-    c.target = (1.0 - restitution_share) * m_inelastic_target[k] + restitution_share * m_elastic_target[k];
-    // Every answer from the same warm start (the last step's impulse): which answer is
-    // solved first then changes neither (World::respond_within_budget).
-    c.impulse = m_warm_start[k];
+    const double target = (1.0 - restitution_share) * m_inelastic_target[k] + restitution_share * m_elastic_target[k];
+    // Answering again: the last answer's impulse is the warm start, scaled as a lone
+    // contact's would be (its impulse is proportional to the velocity change it asks for).
+    const double asked = c.target - m_approach[k], now = target - m_approach[k];
+    if (m_answered && asked > 0.0 && now > 0.0) c.impulse *= now / asked;
+    c.target = target;
   }
+  m_answered = true;
   ContactResponseSettings response;
   response.dt = h;
   response.iterations = m_settings.iterations;
@@ -363,30 +365,17 @@ ContactCounts StepContacts::respond(double restitution_share) {
   const ContactResponseReport outcome = respond_to_contacts(m_bodies, m_projectiles, m_constraints, response);
   ContactCounts counts = m_counts;
   counts.response_iterations = outcome.cg_iterations;
-  if (restitution_share == 0.0) {
-    m_inelastic_impulses.resize(m_constraints.size());
-    for (std::size_t k = 0; k < m_constraints.size(); ++k) m_inelastic_impulses[k] = m_constraints[k].impulse;
+  if (m_settings.impulses != nullptr) {
+    m_settings.impulses->clear();
+    for (std::size_t k = 0; k < m_constraints.size(); ++k) {
+      if (m_constraints[k].impulse > 0.0) m_settings.impulses->emplace(m_keys[k], m_constraints[k].impulse);
+    }
   }
-  keep_impulses([&](std::size_t k) { return m_constraints[k].impulse; });
   // The bodies moved with their corrected velocities; projectiles move likewise.
   for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
     if (m_projectiles[j].launched) m_projectiles[j].position = m_projectile_start[j] + h * m_projectiles[j].velocity;
   }
   return counts;
-}
-
-void StepContacts::keep_inelastic_impulses() {
-  FISSURE_ASSERT(m_inelastic_impulses.size() == m_constraints.size());
-  keep_impulses([&](std::size_t k) { return m_inelastic_impulses[k]; });
-}
-
-template <typename F>
-void StepContacts::keep_impulses(const F& impulse) {
-  if (m_settings.impulses == nullptr) return;
-  m_settings.impulses->clear();
-  for (std::size_t k = 0; k < m_constraints.size(); ++k) {
-    if (impulse(k) > 0.0) m_settings.impulses->emplace(m_keys[k], impulse(k));
-  }
 }
 
 ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environment& environment,

@@ -103,14 +103,9 @@ class StepContacts {
   StepContacts(const StepContacts&) = delete;
   StepContacts& operator=(const StepContacts&) = delete;
   /// Corrects the bodies and projectiles so every contact holds, with `restitution_share`
-  /// ∈ [0, 1] of each contact's restitution (0: inelastic), and keeps its impulses as the
-  /// next step's warm starts. Answers the motion the bodies have: to answer again, first
-  /// restore the motion they had before. Every answer starts from the same warm starts,
-  /// so it does not depend on the answers before it.
+  /// ∈ [0, 1] of each contact's restitution (0: inelastic). Answers the motion the
+  /// bodies have: to answer again, first restore the motion they had before.
   ContactCounts respond(double restitution_share);
-  /// Keeps the last inelastic answer's impulses as the next step's warm starts, where the
-  /// step keeps a blend of answers.
-  void keep_inelastic_impulses();
   /// Contacts whose restitution asks for more than the inelastic target.
   [[nodiscard]] std::size_t restituting() const { return m_counts.restituting; }
 
@@ -122,12 +117,8 @@ class StepContacts {
   ContactCounts m_counts;
   std::vector<ContactConstraint> m_constraints;
   std::vector<ContactKey> m_keys;
-  std::vector<double> m_inelastic_target, m_elastic_target;  ///< per contact [m/s]
-  std::vector<double> m_warm_start;          ///< per contact: the last step's impulse [N s]
-  std::vector<double> m_inelastic_impulses;  ///< per contact: the last inelastic answer's [N s]
-  /// Writes impulse(k) of each contact that pushes into CollisionSettings::impulses.
-  template <typename F>
-  void keep_impulses(const F& impulse);
+  std::vector<double> m_approach, m_inelastic_target, m_elastic_target;  ///< per contact [m/s]
+  bool m_answered = false;  ///< respond() ran: the constraints' impulses are its answer
 };
 
 /// Finds and resolves every contact of the step, with full restitution. The bodies have

@@ -417,23 +417,18 @@ void World::collide(double dt, StepReport& report) {
   cs.iterations = m_settings.contact_iterations;
   cs.impulses = &m_contact_impulses;
   StepContacts contacts(collision_bodies, m_environment, m_projectiles, m_projectile_start, cs);
-  int response_iterations = 0;
-  const auto answer = [&](double restitution_share) {
-    const ContactCounts counts = contacts.respond(restitution_share);
-    response_iterations += counts.response_iterations;
-    return counts;
-  };
-  ContactCounts counts;
-  if (m_settings.restitution_within_budget && contacts.restituting() > 0) {
-    report.restitution_kept = std::min(report.restitution_kept, respond_within_budget(contacts, answer, counts));
-  } else {
-    counts = answer(1.0);
-  }
+  const bool restitutes = m_settings.restitution_within_budget && contacts.restituting() > 0;
+  if (restitutes) save_motion(m_free_motion);
+  const ContactCounts counts = contacts.respond(1.0);
   report.contacts.contacts += counts.contacts;
   report.contacts.swept += counts.swept;
   report.contacts.pairs_tested += counts.pairs_tested;
-  report.contacts.response_iterations += response_iterations;
+  report.contacts.response_iterations += counts.response_iterations;
   report.contacts.restituting += counts.restituting;
+  if (restitutes) {
+    const double limit = substep_energy_limit();
+    if (total_energy() > limit) keep_restitution_within(contacts, limit, report);
+  }
   report.collisions += seconds_since(start);
 }
 
@@ -442,57 +437,26 @@ void World::collide(double dt, StepReport& report) {
 /// held by thousands of contacts, those targets together can ask for more energy than
 /// the impact brought (issue 16: toughness 0 gained ×3 with them and kept the bound
 /// without them). So restitution gives back at most what the substep would otherwise
-/// lose: when the answer with it ends the substep above its budget, the inelastic answer
-/// is solved too and the largest blend of the two within the budget kept. Both meet
-/// their non-penetration targets and the targets are linear in the velocities, so the
-/// blend meets targets in between: it is the answer with a smaller restitution. This is
-/// the energetic bound of simultaneous-impact models (Smith et al. 2012, "Reflections
-/// on simultaneous impact"). When even the inelastic answer ends above the budget, it
-/// stays: what is left above is not restitution's (issue 16's notes).
-///
-/// Each answer starts from the same warm starts (StepContacts::respond), so which one is
-/// solved first changes neither, nor what is kept: the order only saves work. In a
-/// settling pile even the inelastic answer ends above the budget step after step (the
-/// bunny at toughness 0: each of the 185 substeps of 240 whose restitution was cut), and
-/// the answer with restitution was solved only to be thrown away. So after a substep
-/// like that the inelastic answer goes first, and is the only one solved while it stays
-/// above. Returns the share of restitution kept; `counts`: the contacts'.
-double World::respond_within_budget(StepContacts& contacts, const Answer& answer, ContactCounts& counts) {
-  const double limit = substep_energy_limit();
-  save_motion(m_free_motion);
-  if (m_inelastic_first) {
-    counts = answer(0.0);
-    const double inelastic = total_energy();
-    if (inelastic > limit) return 0.0;
-    m_inelastic_first = false;
-    save_motion(m_inelastic_motion);
-    restore_motion(m_free_motion);
-    answer(1.0);
-    const double bounced = total_energy();
-    if (bounced <= limit) return 1.0;
-    save_motion(m_bounced_motion);
-    return blend_within(limit, inelastic, bounced, contacts);
-  }
-  counts = answer(1.0);
-  const double bounced = total_energy();
-  if (bounced <= limit) return 1.0;
+/// lose: when the response with it ends the substep above its budget, the inelastic
+/// response is solved too and the largest blend of the two within the budget kept. Both
+/// meet their non-penetration targets and the targets are linear in the velocities, so
+/// the blend meets targets in between: it is the response with a smaller restitution.
+/// This is the energetic bound of simultaneous-impact models (Smith et al. 2012,
+/// "Reflections on simultaneous impact"). When even the inelastic response ends above
+/// the budget, it stays: what is left above is not restitution's (issue 16's notes).
+void World::keep_restitution_within(StepContacts& contacts, double budget, StepReport& report) {
   save_motion(m_bounced_motion);
+  const double bounced = total_energy();
   restore_motion(m_free_motion);
-  answer(0.0);
+  report.contacts.response_iterations += contacts.respond(0.0).response_iterations;
   const double inelastic = total_energy();
-  if (inelastic > limit) {
-    m_inelastic_first = true;
-    return 0.0;
+  double kept = 0.0;
+  if (inelastic <= budget) {
+    save_motion(m_inelastic_motion);
+    kept = largest_share_within(budget, inelastic, bounced);
+    restore_blend(m_inelastic_motion, m_bounced_motion, kept);
   }
-  save_motion(m_inelastic_motion);
-  return blend_within(limit, inelastic, bounced, contacts);
-}
-
-double World::blend_within(double limit, double inelastic, double bounced, StepContacts& contacts) {
-  const double kept = largest_share_within(limit, inelastic, bounced);
-  restore_blend(m_inelastic_motion, m_bounced_motion, kept);
-  contacts.keep_inelastic_impulses();  // the next step's warm starts, whichever came last
-  return kept;
+  report.restitution_kept = std::min(report.restitution_kept, kept);
 }
 
 double World::largest_share_within(double budget, double inelastic, double bounced) {

@@ -4,7 +4,6 @@
 /// collisions. A feature that is off costs nothing: without fracture no stresses are
 /// kept, without collisions no points are swept.
 
-#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -57,7 +56,7 @@ struct WorldSettings {
   /// Each fragment's rigid rotation within a step moves on an arc, not a line
   /// (rigid_rotation.h); off: plain backward Euler, for comparison.
   bool rotate_on_arcs = true;
-  /// Restitution gives back at most what a substep would otherwise lose (World::respond_within_budget);
+  /// Restitution gives back at most what a substep would otherwise lose (World::collide);
   /// off: Newton's rule on every contact alone, for comparison.
   bool restitution_within_budget = true;
   /// A substep that ends above its energy budget (its start's energy plus what was put in)
@@ -133,7 +132,7 @@ struct StepReport {
   std::vector<std::pair<Index, TetFace>> exposed;       ///< (body, face newly on the boundary)
   ContactCounts contacts;
   /// The smallest share of the contacts' restitution a substep kept: below 1 when the
-  /// full restitution would have ended it above its energy budget (World::respond_within_budget).
+  /// full restitution would have ended it above its energy budget (World::collide).
   double restitution_kept = 1.0;
   int exact_substeps = 0;    ///< substeps solved again exactly (WorldSettings::exact_when_gaining)
   int exact_iterations = 0;  ///< their Newton iterations, summed over bodies
@@ -287,12 +286,9 @@ class World {
     const auto [budget, rounding] = substep_energy_budget();
     return budget + rounding;
   }
-  /// Answers `contacts` with as much of their restitution as the substep's energy budget
-  /// allows (world.cpp); returns the share kept. `answer(share)` is contacts.respond.
-  using Answer = std::function<ContactCounts(double)>;
-  double respond_within_budget(StepContacts& contacts, const Answer& answer, ContactCounts& counts);
-  /// Keeps the largest blend of m_inelastic_motion and m_bounced_motion within `limit`.
-  double blend_within(double limit, double inelastic, double bounced, StepContacts& contacts);
+  /// Answers `contacts` again inelastically and keeps the largest blend of the two
+  /// answers within `budget` [J] (the bodies hold the full restitution's answer).
+  void keep_restitution_within(StepContacts& contacts, double budget, StepReport& report);
   /// The largest share s ∈ [0, 1] for which the blend of m_inelastic_motion and
   /// m_bounced_motion (energies `inelastic` ≤ budget < `bounced`) keeps `budget`.
   double largest_share_within(double budget, double inelastic, double bounced);
@@ -345,10 +341,6 @@ class World {
   /// computed (substep_energy_budget); cleared by solve_bodies.
   mutable std::vector<std::pair<double, double>> m_substep_start_energy;
   Motion m_free_motion, m_bounced_motion, m_inelastic_motion, m_blend_motion;  ///< collide()'s scratch
-  /// The last substep's inelastic answer ended above its budget: answer inelastically
-  /// first (respond_within_budget). Orders the work only, never changes a result, so no
-  /// checkpoint holds it.
-  bool m_inelastic_first = false;
   Motion m_linear_motion;  ///< the bodies at the linear solve's answer, the projectiles before the substep
   std::vector<Matrix3Xd> m_exact_positions;  ///< per body, the exact solve's answer before contacts
   Motion m_linear_end_motion;                ///< the substep's linear answer after contacts and arcs

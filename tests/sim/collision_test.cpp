@@ -269,57 +269,6 @@ TEST(Collision, AnInelasticContactNeverAddsKineticEnergy) {
   EXPECT_GE(body.positions()(2, 0), -1e-3 * settings.dt);  // the corner stops at the ground (to the tolerance)
 }
 
-// Every answer of a step's contacts starts from the same warm starts: an inelastic
-// answer given after one with restitution (World::respond_within_budget solves either
-// first, as it predicts which it needs) is bit for bit the one given alone, the impulses
-// kept for the next step included. A spinning box lands on a corner and an edge with
-// friction, so its response stops short of exact and its warm start shows.
-TEST(Collision, AnAnswerDoesNotDependOnTheAnswersBeforeIt) {
-  const TetMesh cage = testing::grid_cage(Vec3(0, 0, 0.001), Vec3(0.2, 0.2, 0.201), 2, 2, 2);
-  ImplicitIntegrator body(cage.rest_positions, cage.tets, kBoxMaterial);
-  Matrix3Xd v(3, cage.node_count());
-  for (NodeIndex n = 0; n < cage.node_count(); ++n) {
-    v.col(n) = Vec3(0.3, 0.0, -2.0) + Vec3(3.0, 2.0, 0.0).cross(cage.rest_positions.col(n) - Vec3(0.1, 0.1, 0.1));
-  }
-  body.set_velocities(v);
-  CollisionSettings settings;
-  const Matrix3Xd start = body.positions();
-  StepSettings step;
-  step.dt = settings.dt;
-  ASSERT_EQ(body.step(step), SolveStatus::Converged);
-  const EmbeddedPoints points = nodes_as_vertices(cage);
-  const ContactMaterial bouncy{.restitution = 0.5, .friction = 0.6};
-  Environment env;
-  env.ground = Plane{.normal = Vec3::UnitZ(), .offset = 0, .material = bouncy};
-  const std::vector<Index> fragments(cage.tet_count(), 0);
-  CollisionBody collision{&body, &points, &start, &fragments, bouncy};
-  const std::span<CollisionBody> bodies(&collision, 1);
-  ImplicitIntegrator::Motion free;
-  body.save_motion(free);
-  // Warm starts as a last step of the same contacts would leave them.
-  ContactImpulses warm;
-  settings.impulses = &warm;
-  StepContacts(bodies, env, {}, {}, settings).respond(1.0);
-  ASSERT_FALSE(warm.empty());
-
-  body.restore_motion(free);
-  ContactImpulses after_both = warm;
-  settings.impulses = &after_both;
-  StepContacts both(bodies, env, {}, {}, settings);
-  ASSERT_GT(both.restituting(), 0u);
-  both.respond(1.0);
-  body.restore_motion(free);
-  both.respond(0.0);
-  const Matrix3Xd velocities_after_both = body.velocities();
-
-  body.restore_motion(free);
-  ContactImpulses alone = warm;
-  settings.impulses = &alone;
-  StepContacts(bodies, env, {}, {}, settings).respond(0.0);
-  EXPECT_TRUE(body.velocities() == velocities_after_both);
-  EXPECT_EQ(alone, after_both);
-}
-
 TEST(Collision, AProjectileBouncesOffABodyPinnedWhole) {
   // Every node pinned: the body has no unknowns in the contact response, and acts as a
   // static obstacle of its own shape.
