@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
+
+#include <tbb/global_control.h>
 
 #include "common/tet_mesh.h"
 #include "player/sim/world.h"
@@ -40,14 +43,23 @@ TEST(ContactResponse, AnOverlargeWarmStartDoesNotThrowTheBallOff) {
   EXPECT_NEAR(contacts[0].impulse, needed, settings.relative_violation * needed);
 }
 
-// A 4×4×3 grid of 0.1 m cubes shatters into single tets at toughness 0 as it lands at
-// 2 m/s, and its fragments pile on the ground and on each other: several thousand
-// coupled contacts. The response once cycled here (issue 16): a solve with a contact
-// active overshot, the next left it inactive, and responses ended on the missing half,
-// so pieces sank with a contact every step (13 cm, six sphere radii, in 120 steps).
-// With the line search, no sphere sinks by more than half the smallest radius.
-TEST(ContactResponse, APileOfFragmentsStaysOnTheGround) {
-  const TetMesh cage = testing::grid_cage(Vec3(0, 0, 0.02), Vec3(0.4, 0.4, 0.3), 4, 4, 3);
+/// What run_pile() leaves.
+struct Pile {
+  Matrix3Xd positions, velocities;
+  Index tets = 0, fragments = 0;
+  double deepest = 0.0;             ///< the deepest sphere penetration of any step [m]
+  double smallest_radius = 0.0;     ///< [m]
+  std::size_t cg_iterations = 0, contacts = 0, most_contacts = 0;  ///< most: in one step
+};
+
+/// A grid of `cubes` × `cubes` × 3 cubes of 0.1 m that shatters into single tets at
+/// toughness 0 as it lands at 2 m/s, its fragments piling on the ground and on each
+/// other, after `steps` steps on at most `threads` threads (0: TBB's default).
+Pile run_pile(int cubes, int steps, int threads) {
+  std::optional<tbb::global_control> limit;
+  if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+  const double side = 0.1 * cubes;
+  const TetMesh cage = testing::grid_cage(Vec3(0, 0, 0.02), Vec3(side, side, 0.3), cubes, cubes, 3);
   BodyDescription body =
       testing::describe("grid", cage, Material{.density = 1000, .youngs_modulus = 2e5, .poisson_ratio = 0.3});
   body.toughness = 0.0;
@@ -59,26 +71,57 @@ TEST(ContactResponse, APileOfFragmentsStaysOnTheGround) {
   settings.fracture = true;
   settings.self_collision = true;
   World world({body}, environment, {}, settings);
-  double deepest = 0.0;
-  std::size_t cg_iterations = 0, contacts = 0;
-  for (int i = 0; i < 120; ++i) {
+  Pile pile;
+  for (int i = 0; i < steps; ++i) {
     const StepReport report = world.step();
-    ASSERT_TRUE(report.status.ok()) << "step " << i;
-    deepest = std::max(deepest, world.sphere_penetration());
-    cg_iterations += report.contacts.response_iterations;
-    contacts += report.contacts.contacts;
+    EXPECT_TRUE(report.status.ok()) << "step " << i;
+    pile.deepest = std::max(pile.deepest, world.sphere_penetration());
+    pile.cg_iterations += report.contacts.response_iterations;
+    pile.contacts += report.contacts.contacts;
+    pile.most_contacts = std::max(pile.most_contacts, report.contacts.contacts);
   }
+  const ImplicitIntegrator& integrator = world.bodies()[0].integrator();
+  pile.positions = integrator.positions();
+  pile.velocities = integrator.velocities();
+  pile.tets = cage.tet_count();
+  pile.fragments = world.fragment_count();
   const std::vector<double>& radius = world.bodies()[0].spheres.radius;
-  const double smallest = *std::min_element(radius.begin(), radius.end());
+  pile.smallest_radius = *std::min_element(radius.begin(), radius.end());
+  return pile;
+}
+
+// A 4×4×3 pile holds several thousand coupled contacts. The response once cycled here
+// (issue 16): a solve with a contact active overshot, the next left it inactive, and
+// responses ended on the missing half, so pieces sank with a contact every step (13 cm,
+// six sphere radii, in 120 steps). With the line search, no sphere sinks by more than
+// half the smallest radius.
+TEST(ContactResponse, APileOfFragmentsStaysOnTheGround) {
+  const Pile pile = run_pile(4, 120, 0);
   std::printf("%u fragments; deepest sphere penetration %.3g m, smallest radius %.3g m; %zu contacts and %zu "
               "response CG iterations in 120 steps\n",
-              world.fragment_count(), deepest, smallest, contacts, cg_iterations);
-  EXPECT_GT(world.fragment_count(), cage.tet_count() / 2);  // it did shatter into a pile
-  EXPECT_LT(deepest, 0.5 * smallest);
+              static_cast<unsigned>(pile.fragments), pile.deepest, pile.smallest_radius, pile.contacts,
+              pile.cg_iterations);
+  EXPECT_GT(pile.fragments, pile.tets / 2);  // it did shatter into a pile
+  EXPECT_LT(pile.deepest, 0.5 * pile.smallest_radius);
   // The work: the response's CG iterations, preconditioned with each small fragment's
   // dense block, its contacts included (block_jacobi.h). Measured 6,392 (CHOLMOD) and
   // 6,232 (portable); with the bodies' own preconditioners alone, 11,122.
-  EXPECT_LT(cg_iterations, 8000u);
+  EXPECT_LT(pile.cg_iterations, 8000u);
+}
+
+// With more contacts than one chunk, the response's passes and its blocks' assembly run
+// in parallel (contact_response.cpp); each sums in row order, so a pile ends in the same
+// state bit for bit whatever the thread count. 6×6×3 cubes: the 4×4×3 pile has at most
+// ~450 contacts in a step, one chunk.
+TEST(ContactResponse, APileEndsTheSameWhateverTheThreadCount) {
+  const Pile one = run_pile(6, 120, 1);
+  const Pile four = run_pile(6, 120, 4);
+  std::printf("6×6×3 pile, 120 steps: %u fragments, at most %zu contacts in a step\n",
+              static_cast<unsigned>(one.fragments), one.most_contacts);
+  EXPECT_GT(one.most_contacts, 512u);  // more than one chunk of the passes (kRowsPerTask)
+  EXPECT_EQ(one.cg_iterations, four.cg_iterations);
+  EXPECT_TRUE(one.positions == four.positions);
+  EXPECT_TRUE(one.velocities == four.velocities);
 }
 
 
