@@ -67,6 +67,7 @@ void BlockJacobi::set_groups(std::vector<std::vector<Eigen::Index>> groups, Eige
   const auto place = [&](auto& set, std::vector<Eigen::Index>&& rows, bool fixed) {
     using Matrix = typename std::remove_reference_t<decltype(set)>::Matrix;
     const auto g = static_cast<Index>(set.rows.size());
+    FISSURE_ASSERT(rows.size() <= std::numeric_limits<std::uint16_t>::max());  // OuterPair's places
     for (std::size_t local = 0; local < rows.size(); ++local) {
       FISSURE_ASSERT(rows[local] % 3 == 0 && m_slot[rows[local] / 3].group == kNone);
       m_slot[rows[local] / 3] = {g, static_cast<Index>(local), fixed};
@@ -96,7 +97,7 @@ void BlockJacobi::add(Eigen::Index row_a, Eigen::Index row_b, const Mat3& term) 
 }
 
 template <typename F>
-void BlockJacobi::for_each_outer_pair(std::span<const OuterRows> terms, F&& f) const {
+void BlockJacobi::for_each_outer_pair(std::span<const OuterRows> terms, F&& visit) const {
   for (std::size_t k = 0; k < terms.size(); ++k) {
     const OuterRows& term = terms[k];
     FISSURE_ASSERT(term.count >= 0 && term.count <= 8);
@@ -105,9 +106,9 @@ void BlockJacobi::for_each_outer_pair(std::span<const OuterRows> terms, F&& f) c
     for (std::size_t e = 0; e < count; ++e) slots[e] = m_slot[term.rows[e] / 3];
     for (std::size_t e = 0; e < count; ++e) {
       if (slots[e].group == kNone) continue;
-      for (std::size_t g = 0; g < count; ++g) {
-        if (slots[g].group == slots[e].group && slots[g].fixed == slots[e].fixed) {
-          f(k, slots[e], slots[g], term.weights[e] * term.weights[g]);
+      for (std::size_t f = 0; f < count; ++f) {
+        if (slots[f].group == slots[e].group && slots[f].fixed == slots[e].fixed) {
+          visit(k, slots[e], slots[f], term.weights[e] * term.weights[f]);
         }
       }
     }

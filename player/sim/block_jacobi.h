@@ -81,9 +81,9 @@ class BlockJacobi {
     Index local = 0;      ///< the node's place in its group
     bool fixed = false;
   };
-  /// f(term, a, b, wₑ w_f) for every pair of a term's rows inside one group, in term order.
+  /// visit(term, a, b, wₑ w_f) for every pair of a term's rows inside one group, in term order.
   template <typename F>
-  void for_each_outer_pair(std::span<const OuterRows> terms, F&& f) const;
+  void for_each_outer_pair(std::span<const OuterRows> terms, F&& visit) const;
   template <typename F>
   void for_each_set(F&& f) {
     f(m_fixed);
