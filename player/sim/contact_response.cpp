@@ -222,19 +222,37 @@ class JointSystem {
   /// shifted so that together they gain exactly the impulses they received),
   /// projectiles take exactly their impulses.
   void apply(const Eigen::VectorXd& delta, const std::vector<Vec3>& forces, double h) {
-    Eigen::VectorXd net = Eigen::VectorXd::Zero(m_size);
-    for (std::size_t k = 0; k < m_rows.size(); ++k) m_rows[k].scatter(forces[k], net);
+    multiply_mass(delta, m_mass_delta);
+    momentum_shifts(m_mass_delta, forces, m_shift);
     for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
       if (m_body_offset[bi] < 0) continue;
       const Eigen::Index n = m_bodies[bi].body->system_size();
-      Eigen::VectorXd d = delta.segment(m_body_offset[bi], n);
-      balance_fragments(m_bodies[bi], net.segment(m_body_offset[bi], n), d);
+      const Eigen::VectorXd d = delta.segment(m_body_offset[bi], n) + m_shift.segment(m_body_offset[bi], n);
       m_bodies[bi].body->correct_velocities(d, h);
     }
     for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
       if (m_projectile_offset[j] >= 0) {
-        m_projectiles[j].velocity += net.segment<3>(m_projectile_offset[j]) / m_projectiles[j].mass;
+        m_projectiles[j].velocity += m_net.segment<3>(m_projectile_offset[j]) / m_projectiles[j].mass;
       }
+    }
+  }
+
+  /// What apply() adds to a correction δ whose 𝒜δ is `mass_delta`, for the contact
+  /// forces `forces`: on each body, the rigid shift of balance_fragments on the nodes it
+  /// moves; on each projectile, the velocity that makes it gain exactly its own impulses
+  /// (apply() gives a projectile Σf / m and ignores its δ). Also leaves Σf in m_net.
+  void momentum_shifts(const Eigen::VectorXd& mass_delta, const std::vector<Vec3>& forces, Eigen::VectorXd& shift) {
+    m_net.setZero(m_size);
+    for (std::size_t k = 0; k < m_rows.size(); ++k) m_rows[k].scatter(forces[k], m_net);
+    shift.setZero(m_size);
+    for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+      if (m_body_offset[bi] < 0) continue;
+      const Eigen::Index o = m_body_offset[bi], n = m_bodies[bi].body->system_size();
+      balance_fragments(m_bodies[bi], m_net.segment(o, n), mass_delta.segment(o, n), shift.segment(o, n));
+    }
+    for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
+      const Eigen::Index o = m_projectile_offset[j];
+      if (o >= 0) shift.segment<3>(o) = (m_net.segment<3>(o) - mass_delta.segment<3>(o)) / m_projectiles[j].mass;
     }
   }
 
@@ -378,7 +396,10 @@ class JointSystem {
   /// took a share of the others' imbalance (ContactResponse tests). Per fragment, each
   /// piece would gain exactly its own impulses, but one-tet pieces took their large
   /// share as speed: the bunny at toughness 0 gained ×1.19 in 49 steps (session 21).
-  void balance_fragments(const CollisionBody& b, const Eigen::VectorXd& net, Eigen::VectorXd& d) {
+  /// Writes the shift into `shift` (the body's segment, zero elsewhere) from the body's
+  /// Σf (`net`) and 𝒜δ (`mass_delta`).
+  void balance_fragments(const CollisionBody& b, Eigen::Ref<const Eigen::VectorXd> net,
+                         Eigen::Ref<const Eigen::VectorXd> mass_delta, Eigen::Ref<Eigen::VectorXd> shift) {
     ImplicitIntegrator& body = *b.body;
     const Index fragments = map_node_fragments(b);
     m_touched.assign(fragments, false);
@@ -395,20 +416,18 @@ class JointSystem {
       const Index f = m_node_fragment[node];
       return body.system_row(node) != kInvalidIndex && m_touched[f] && !m_pinned[f];
     };
-    m_in = d;
-    body.multiply_system(m_in, m_out);
     Vec3 unbalanced = Vec3::Zero();
     double mass = 0.0;
     for (NodeIndex node = 0; node < body.node_count(); ++node) {
       if (!shifted(node)) continue;
       const Index r = body.system_row(node);
-      unbalanced += net.segment<3>(r) - m_out.segment<3>(r);
+      unbalanced += net.segment<3>(r) - mass_delta.segment<3>(r);
       mass += body.node_masses()[node];
     }
     if (!(mass > 0.0)) return;
-    const Vec3 shift = unbalanced / (body.system_mass_scale() * mass);
+    const Vec3 rigid = unbalanced / (body.system_mass_scale() * mass);
     for (NodeIndex node = 0; node < body.node_count(); ++node) {
-      if (shifted(node)) d.segment<3>(body.system_row(node)) += shift;
+      if (shifted(node)) shift.segment<3>(body.system_row(node)) = rigid;
     }
   }
 
@@ -474,6 +493,7 @@ class JointSystem {
   std::vector<bool> m_body_needs_own;   ///< per body: a fragment too large for a block
   Eigen::VectorXd m_in, m_out;  // scratch for the bodies' blocks
   std::vector<Index> m_node_fragment;  // scratch for balance_fragments
+  Eigen::VectorXd m_net, m_mass_delta, m_shift;  // momentum_shifts' Σf; apply()'s 𝒜δ and shift
   std::vector<bool> m_touched, m_pinned;
 };
 
