@@ -339,7 +339,7 @@ StepContacts::StepContacts(std::span<CollisionBody> bodies, const Environment& e
     m_inelastic_target.push_back(inelastic);
     m_elastic_target.push_back(elastic);
     m_keys.push_back(key(c));
-    m_constraints.push_back({c.a, c.b, c.normal, elastic, c.friction, warm_start});
+    m_constraints.push_back({c.a, c.b, c.normal, elastic, c.friction, warm_start, c.reach});
   }
 }
 

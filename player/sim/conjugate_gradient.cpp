@@ -1,5 +1,7 @@
 #include "player/sim/conjugate_gradient.h"
 
+#include <algorithm>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -22,14 +24,14 @@ void symmetric_product(const Eigen::SparseMatrix<double>& A, const Eigen::Vector
 
 ConjugateGradientResult conjugate_gradient(const Eigen::SparseMatrix<double>& A, const Eigen::VectorXd& b,
                                            Eigen::VectorXd& x, const ApplyPreconditioner& precondition,
-                                           double tolerance, int max_iterations) {
+                                           double tolerance, int max_iterations, double residual_reduction) {
   return conjugate_gradient([&](const Eigen::VectorXd& in, Eigen::VectorXd& out) { symmetric_product(A, in, out); },
-                            b, x, precondition, tolerance, max_iterations);
+                            b, x, precondition, tolerance, max_iterations, residual_reduction);
 }
 
 ConjugateGradientResult conjugate_gradient(const ApplyOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& x,
                                            const ApplyPreconditioner& precondition, double tolerance,
-                                           int max_iterations) {
+                                           int max_iterations, double residual_reduction) {
   ConjugateGradientResult result;
   const double b_norm2 = b.squaredNorm();
   if (b_norm2 == 0.0) {
@@ -37,10 +39,13 @@ ConjugateGradientResult conjugate_gradient(const ApplyOperator& A, const Eigen::
     result.converged = true;
     return result;
   }
-  const double threshold = tolerance * tolerance * b_norm2;
+  double threshold = tolerance * tolerance * b_norm2;
   Eigen::VectorXd r(b.size()), z(b.size()), p(b.size()), Ap(b.size());
   A(x, Ap);
   r = b - Ap;
+  if (residual_reduction < 1.0) {
+    threshold = std::min(threshold, residual_reduction * residual_reduction * r.squaredNorm());
+  }
   if (r.squaredNorm() <= threshold) {
     result.converged = true;
     return result;

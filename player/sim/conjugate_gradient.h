@@ -22,13 +22,15 @@ using ApplyPreconditioner = std::function<void(const Eigen::VectorXd& r, Eigen::
 using ApplyOperator = std::function<void(const Eigen::VectorXd& x, Eigen::VectorXd& y)>;
 
 /// Solves A x = b from the initial guess in x until ‖b − A x‖ ≤ tolerance ‖b‖ or
-/// max_iterations. b = 0 gives x = 0.
+/// max_iterations. b = 0 gives x = 0. With residual_reduction < 1 it also goes on until
+/// the residual is at most that share of the initial guess's, so a guess already within
+/// tolerance ‖b‖ is still improved (a warm-started inner solve of an outer iteration).
 ConjugateGradientResult conjugate_gradient(const ApplyOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& x,
                                            const ApplyPreconditioner& precondition, double tolerance,
-                                           int max_iterations);
+                                           int max_iterations, double residual_reduction = 1.0);
 /// The same with an assembled A (symmetric_product).
 ConjugateGradientResult conjugate_gradient(const Eigen::SparseMatrix<double>& A, const Eigen::VectorXd& b,
                                            Eigen::VectorXd& x, const ApplyPreconditioner& precondition,
-                                           double tolerance, int max_iterations);
+                                           double tolerance, int max_iterations, double residual_reduction = 1.0);
 
 }  // namespace fissure::sim

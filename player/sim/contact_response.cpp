@@ -72,6 +72,7 @@ struct Row {
   Vec3 normal;
   Vec3 free_velocity;  ///< relative velocity v_a − v_b before the response
   double required = 0; ///< r = target − n · free_velocity: what δ must add along n
+  double reach = 0;    ///< ContactConstraint::reach [m]
   double kappa = 0;
   double friction = 0;
   double lambda = 0;
@@ -138,6 +139,7 @@ class JointSystem {
       row.free_velocity = velocity(contacts[k].a) - velocity(contacts[k].b);
       row.required = contacts[k].target - row.normal.dot(row.free_velocity);
       row.kappa = kPenaltyRatio / inverse_mass;
+      row.reach = contacts[k].reach;
       row.lambda = std::max(contacts[k].impulse, 0.0);
       m_contact_row[k] = static_cast<Index>(m_rows.size());
       m_rows.push_back(row);
@@ -557,20 +559,30 @@ class AugmentedLagrangian {
   /// which the line-searched δ does not balance, made the rigid shift that evens out the
   /// balance (JointSystem::apply) add energy: ×2.24 in the stability grid's soft, nearly
   /// incompressible case at dt = 0.1. Returns the largest shortfall, and whether any
-  /// contact misses what it is allowed.
+  /// contact misses what it is allowed, both of the velocities apply() will leave.
   std::pair<double, bool> update_multipliers(std::span<const double> allowed) {
-    double violation = 0.0;
-    bool unmet = false;
     for (std::size_t k = 0; k < m_rows.size(); ++k) {
       Row& row = m_rows[k];
       const double shortfall = this->shortfall(k);
       m_forces[k] = row.force(m_relative[k], row.active ? row.lambda + row.kappa * shortfall : 0.0);
       row.lambda = std::max(0.0, row.lambda + row.kappa * shortfall);
+    }
+    // The shift that balances momentum is part of the answer, so the targets are judged
+    // with it (stationarity, the KKT condition the shortfalls alone do not check). Judged
+    // on δ alone, a line search that stopped short (t = 0.46, four contacts just turned
+    // off) left 𝒜δ pushing a heavy bar up 253 m/s more than its contacts did; the shift
+    // took that back after the iterations had stopped, and the bar sank 12.7 m into the
+    // ground in one substep (issue 16).
+    m_system.momentum_shifts(m_mass_delta, m_forces, m_shift);
+    double violation = 0.0;
+    bool unmet = false;
+    for (std::size_t k = 0; k < m_rows.size(); ++k) {
+      const double shortfall = this->shortfall(k) - m_rows[k].normal.dot(m_rows[k].apply(m_shift));
       violation = std::max(violation, shortfall);
       // Both halves of complementarity: a contact must not fall short of its target,
       // nor push while it already separates faster than asked (that push is work done
       // on the bodies, energy no contact may add).
-      const bool overshoots = row.lambda > 0.0 && -shortfall > allowed[k];
+      const bool overshoots = m_rows[k].lambda > 0.0 && -shortfall > allowed[k];
       unmet = unmet || shortfall > allowed[k] || overshoots;
     }
     return {violation, unmet};
@@ -594,7 +606,8 @@ class AugmentedLagrangian {
     return conjugate_gradient([&](const Eigen::VectorXd& in, Eigen::VectorXd& out) { m_system.multiply(in, out); },
                               rhs, x,
                               [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { m_system.precondition(r, z); },
-                              m_settings.tolerance, m_settings.max_cg_iterations)
+                              m_settings.tolerance, m_settings.max_cg_iterations,
+                              m_settings.inner_reduction)
         .iterations;
   }
 
@@ -654,6 +667,7 @@ class AugmentedLagrangian {
   std::vector<Vec3> m_step_relative;  ///< G d per row, for the step's direction d
   Eigen::VectorXd m_pull;        ///< f_η
   Eigen::VectorXd m_mass_delta, m_mass_direction;  ///< 𝒜 δ, 𝒜 d
+  Eigen::VectorXd m_shift;       ///< what apply() will add to δ (JointSystem::momentum_shifts)
 };
 
 }  // namespace
@@ -669,6 +683,7 @@ ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::
   std::vector<double> allowed(rows.size());
   for (std::size_t k = 0; k < rows.size(); ++k) {
     allowed[k] = settings.relative_violation * std::max(std::abs(rows[k].required), settings.reference_speed);
+    if (rows[k].reach > 0.0) allowed[k] = std::min(allowed[k], settings.reach_share * rows[k].reach / settings.dt);
   }
   const bool any_friction = std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.friction > 0.0; });
   AugmentedLagrangian solver(system, settings);

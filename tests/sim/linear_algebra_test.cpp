@@ -164,6 +164,28 @@ TEST(ConjugateGradient, SolvesASymmetricPositiveDefiniteSystemToTheTolerance) {
   EXPECT_EQ(exact.iterations, 1);
 }
 
+// A guess already within tolerance ‖b‖ (the contact response's warm-started inner
+// solves) is left as it is by default, and improved to the asked share of its own
+// residual with residual_reduction.
+TEST(ConjugateGradient, AResidualReductionImprovesAGuessAlreadyWithinTheTolerance) {
+  std::mt19937 rng(13);
+  const Eigen::SparseMatrix<double> A = random_spd(200, rng);
+  const Eigen::VectorXd solution = Eigen::VectorXd::Random(200);
+  const Eigen::VectorXd b = A * solution;
+  const Eigen::VectorXd guess = solution + 1e-6 * Eigen::VectorXd::Random(200);
+  const double start = (b - A * guess).norm();
+  ASSERT_LT(start, 1e-3 * b.norm());
+  const Eigen::VectorXd inverse_diagonal = A.diagonal().cwiseInverse();
+  const auto jacobi = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { z = inverse_diagonal.cwiseProduct(r); };
+  Eigen::VectorXd x = guess;
+  EXPECT_EQ(conjugate_gradient(A, b, x, jacobi, 1e-3, 1000).iterations, 0);
+  EXPECT_EQ(x, guess);
+  const ConjugateGradientResult reduced = conjugate_gradient(A, b, x, jacobi, 1e-3, 1000, 0.1);
+  EXPECT_TRUE(reduced.converged);
+  EXPECT_GT(reduced.iterations, 0);
+  EXPECT_LE((b - A * x).norm(), 0.1 * start);
+}
+
 TEST(ConjugateGradient, ZeroRightHandSideGivesZeroAndAnIndefiniteMatrixStops) {
   std::mt19937 rng(5);
   const Eigen::SparseMatrix<double> A = random_spd(50, rng);
