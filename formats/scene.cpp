@@ -341,6 +341,7 @@ constexpr double kMaxYoungsModulus = 1e13;   // [Pa], ten times diamond
 // Each halving can double a substep's cost where energy keeps appearing; 2^20 substeps
 // of one is already far past a usable run.
 constexpr int kMaxEnergyHalvings = 20;
+constexpr int kMaxContactIterations = 64;  // 8 is the default; a pile's shortfall hardly moves after that
 const std::string kSpeedRange = "a speed of at most 1e4 m/s";
 const std::string kPositionRange = "at most 1e6 m from the origin";
 
@@ -365,8 +366,8 @@ void read_box_corners(const Table& t, Vec3& min, Vec3& max) {
 
 void read_solver(const Table& t, SceneSolverSettings& s) {
   t.allow_only({"dt", "min_dt", "max_substep", "solver", "tolerance", "max_iterations", "preconditioner",
-                "refactor_iterations", "stiffness", "rotation", "exact_when_gaining", "energy_halvings", "threads",
-                "max_splits_per_step"});
+                "refactor_iterations", "stiffness", "rotation", "exact_when_gaining", "energy_halvings",
+                "contact_iterations", "threads", "max_splits_per_step"});
   t.read_number("dt", s.dt, [](double v) { return v > 0 && v <= 1; }, "0 < dt <= 1 [s]");
   t.read_number("min_dt", s.min_dt, [&](double v) { return v >= 0 && v <= s.dt; },
                 "0 <= min_dt <= dt (= " + format_number(s.dt) + ") [s]; 0 means a fixed step");
@@ -386,6 +387,8 @@ void read_solver(const Table& t, SceneSolverSettings& s) {
                 {{"never", SceneExact::Never}, {"solve", SceneExact::Solve}, {"contacts", SceneExact::Contacts}});
   t.read_integer("energy_halvings", s.energy_halvings, 0, kMaxEnergyHalvings,
                  "an integer in 0 … " + std::to_string(kMaxEnergyHalvings) + " (0 = never)");
+  t.read_integer("contact_iterations", s.contact_iterations, 1, kMaxContactIterations,
+                 "an integer in 1 … " + std::to_string(kMaxContactIterations));
   t.read_integer("threads", s.threads, 0, kMaxThreads, "an integer in 0 … " + std::to_string(kMaxThreads) + " (0 = all cores)");
   t.read_integer("max_splits_per_step", s.max_splits_per_step, 0, INT_MAX, "an integer >= 0");
 }

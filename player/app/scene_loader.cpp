@@ -195,6 +195,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
   settings.rotate_on_arcs = scene.solver.rotation == formats::SceneRotation::Arc;
   settings.exact_when_gaining = exact_resolve(scene.solver.exact_when_gaining);
   settings.energy_halvings = scene.solver.energy_halvings;
+  settings.contact_iterations = scene.solver.contact_iterations;
   settings.min_dt = scene.solver.min_dt;
   settings.max_substep = scene.solver.max_substep;
   settings.fracture = scene.features.fracture;

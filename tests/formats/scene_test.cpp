@@ -36,6 +36,7 @@ preconditioner = "jacobi"
 refactor_iterations = 3
 stiffness = "exact"
 rotation = "line"
+contact_iterations = 3
 threads = 3
 max_splits_per_step = 7
 
@@ -126,6 +127,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(scene.solver.refactor_iterations, 3);
   EXPECT_EQ(scene.solver.stiffness, SceneStiffness::Exact);
   EXPECT_EQ(scene.solver.rotation, SceneRotation::Line);
+  EXPECT_EQ(scene.solver.contact_iterations, 3);
   EXPECT_EQ(scene.solver.threads, 3);
   EXPECT_EQ(scene.solver.max_splits_per_step, 7);
 
@@ -179,12 +181,12 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(bunny.pin_boxes[0].min, Vec3(-1, -1, 0));
   EXPECT_EQ(bunny.pin_boxes[0].max, Vec3(1, 1, 0.1));
   EXPECT_EQ(bunny.pin_nodes, (std::vector<Index>{3, 1, 4, 15}));
-  EXPECT_EQ(bunny.line, 47);
+  EXPECT_EQ(bunny.line, 48);
 
   const SceneObject& cube = scene.objects[1];
   EXPECT_EQ(cube.name, "cube");  // the bundle's stem when no name is given
   EXPECT_EQ(cube.bundle, std::filesystem::path("scenes/other/cube.h5"));
-  EXPECT_EQ(cube.line, 75);
+  EXPECT_EQ(cube.line, 76);
 
   ASSERT_EQ(scene.projectiles.size(), 1u);
   const SceneProjectile& p = scene.projectiles[0];
@@ -195,7 +197,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(p.launch_time, 1.5);
   EXPECT_EQ(p.restitution, 0.8);
   EXPECT_EQ(p.friction, 0.1);
-  EXPECT_EQ(p.line, 78);
+  EXPECT_EQ(p.line, 79);
 }
 
 TEST(SceneReader, DefaultsApply) {
@@ -207,6 +209,7 @@ TEST(SceneReader, DefaultsApply) {
   EXPECT_EQ(scene.solver.max_iterations, 500);
   EXPECT_EQ(scene.solver.preconditioner, ScenePreconditioner::Cholesky);
   EXPECT_EQ(scene.solver.stiffness, SceneStiffness::Warped);
+  EXPECT_EQ(scene.solver.contact_iterations, 8);
   EXPECT_EQ(scene.solver.threads, 0);
   EXPECT_EQ(scene.solver.max_splits_per_step, 64);
   EXPECT_FALSE(scene.features.fracture);
@@ -412,6 +415,8 @@ TEST(SceneReader, OutOfRangeValuesNameKeyAndLine) {
       {"[solver]\nrefactor_iterations = 0\n", "solver.refactor_iterations = 0 is out of range", 4},
       {"[solver]\nmax_iterations = 10000000000\n", "solver.max_iterations = 10000000000 is out of range", 4},
       {"[solver]\nthreads = -1\n", "solver.threads = -1 is out of range", 4},
+      {"[solver]\ncontact_iterations = 0\n", "solver.contact_iterations = 0 is out of range", 4},
+      {"[solver]\ncontact_iterations = 65\n", "solver.contact_iterations = 65 is out of range", 4},
       {"[solver]\nmax_splits_per_step = -2\n", "solver.max_splits_per_step = -2 is out of range", 4},
       {"[object.material]\ndensity = 0\n", "object[0].material.density = 0 is out of range", 4},
       {"[object.material]\nyoungs_modulus = -1e6\n", "object[0].material.youngs_modulus = -1e+06 is out of range", 4},
