@@ -22,9 +22,10 @@ using ApplyPreconditioner = std::function<void(const Eigen::VectorXd& r, Eigen::
 using ApplyOperator = std::function<void(const Eigen::VectorXd& x, Eigen::VectorXd& y)>;
 
 /// Solves A x = b from the initial guess in x until ‖b − A x‖ ≤ tolerance ‖b‖ or
-/// max_iterations. b = 0 gives x = 0. With residual_reduction < 1 it also goes on until
-/// the residual is at most that share of the initial guess's, so a guess already within
-/// tolerance ‖b‖ is still improved (a warm-started inner solve of an outer iteration).
+/// max_iterations. b = 0 gives x = 0. With residual_reduction in (0, 1) it also goes on
+/// until the residual is at most that share of the initial guess's, so a guess already
+/// within tolerance ‖b‖ is still improved (a warm-started inner solve of an outer
+/// iteration); 1 leaves the rule as it was.
 ConjugateGradientResult conjugate_gradient(const ApplyOperator& A, const Eigen::VectorXd& b, Eigen::VectorXd& x,
                                            const ApplyPreconditioner& precondition, double tolerance,
                                            int max_iterations, double residual_reduction = 1.0);
