@@ -361,6 +361,7 @@ ContactCounts StepContacts::respond(double restitution_share) {
   ContactResponseSettings response;
   response.dt = h;
   response.iterations = m_settings.iterations;
+  response.sparse_blocks_after = m_settings.sparse_blocks_after;
   response.reference_speed = m_settings.gravity.norm() * h;
   const ContactResponseReport outcome = respond_to_contacts(m_bodies, m_projectiles, m_constraints, response);
   ContactCounts counts = m_counts;

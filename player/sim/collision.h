@@ -75,6 +75,7 @@ struct CollisionSettings {
   Vec3 gravity = Vec3(0, 0, -9.81);  ///< sets the resting speed (no restitution below 2 |g| h)
   bool self_collision = false;       ///< between fragments and between bodies
   int iterations = 8;                ///< augmented-Lagrangian iterations of the response, at most
+  int sparse_blocks_after = 40;      ///< ContactResponseSettings::sparse_blocks_after
   ContactImpulses* impulses = nullptr;  ///< in: last step's impulses (warm start); out: this step's
 };
 

@@ -9,6 +9,7 @@
 
 #include "player/sim/block_jacobi.h"
 #include "player/sim/conjugate_gradient.h"
+#include "player/sim/sparse_blocks.h"
 
 namespace fissure::sim {
 
@@ -149,6 +150,24 @@ class JointSystem {
   }
 
   [[nodiscard]] Eigen::Index size() const { return m_size; }
+
+  /// From now on, each large fragment that a contact couples to another piece is
+  /// preconditioned by its own sparse block, its contacts' terms included, in place of
+  /// its body's own preconditioner; false if there is none. Made on demand: a block costs
+  /// a sparse factorization per outer iteration, which pays only where the solves
+  /// without it are long (a large fragment in a pile of small ones).
+  bool use_sparse_blocks() {
+    if (m_sparse_active || m_sparse_candidates.empty()) return false;
+    m_sparse.set_groups(std::move(m_sparse_candidates), m_size);
+    m_sparse_candidates.clear();
+    for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+      if (m_body_offset[bi] >= 0) add_fragment_systems(bi, m_sparse);
+    }
+    m_sparse.set_outer_rows(m_outer_rows);  // factored by the next update_blocks()
+    m_body_needs_own = m_body_keeps_own;
+    m_sparse_active = true;
+    return true;
+  }
   std::vector<Row>& rows() { return m_rows; }
   [[nodiscard]] Index row_of(std::size_t contact) const { return m_contact_row[contact]; }
 
@@ -198,12 +217,13 @@ class JointSystem {
       const Eigen::Index offset = m_body_offset[bi], n = m_bodies[bi].body->system_size();
       m_in = r.segment(offset, n);
       for (Eigen::Index row = 0; row < n; row += 3) {
-        if (m_blocks.covers(offset + row)) m_in.segment<3>(row).setZero();
+        if (m_blocks.covers(offset + row) || m_sparse.covers(offset + row)) m_in.segment<3>(row).setZero();
       }
       m_bodies[bi].body->precondition_system(m_in, m_out);
       z.segment(offset, n) = m_out;
     }
     m_blocks.solve(r, z);
+    m_sparse.solve(r, z);
   }
 
   /// The dense blocks of the current operator: the base (system and masses) plus each
@@ -218,6 +238,7 @@ class JointSystem {
     });
     m_blocks.set_outer_terms(m_row_terms);
     m_blocks.factor();
+    if (m_sparse_active) m_sparse.set_outer_terms(m_row_terms);
   }
 
   /// Applies the correction: bodies move by it (the fragments it touched rigidly
@@ -278,32 +299,35 @@ class JointSystem {
   /// small body counts as one fragment) and per projectile; their base values: the
   /// mass terms and the fragment's tets' system blocks.
   void build_blocks() {
-    std::vector<std::vector<Eigen::Index>> groups;
+    std::vector<std::vector<Eigen::Index>> groups, sparse_groups;
     m_body_needs_own.assign(m_bodies.size(), false);
+    m_body_keeps_own.assign(m_bodies.size(), false);
     for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
-      if (m_body_offset[bi] >= 0) add_fragment_groups(bi, groups);
+      if (m_body_offset[bi] >= 0) add_fragment_groups(bi, groups, sparse_groups);
     }
+    m_sparse_candidates = std::move(sparse_groups);
+    m_sparse.set_groups({}, m_size);
     for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
       if (m_projectile_offset[j] >= 0) groups.push_back({m_projectile_offset[j]});
     }
     m_blocks.set_groups(std::move(groups), m_size);
     for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
-      if (m_body_offset[bi] >= 0) add_fragment_systems(bi);
+      if (m_body_offset[bi] >= 0) add_fragment_systems(bi, m_blocks);
     }
     for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
       const Eigen::Index r = m_projectile_offset[j];
       if (r >= 0) m_blocks.add(r, r, m_projectiles[j].mass * Mat3::Identity());
     }
     m_blocks.keep_as_base();
-    std::vector<BlockJacobi::OuterRows> outer(m_rows.size());
+    m_outer_rows.resize(m_rows.size());
     for (std::size_t k = 0; k < m_rows.size(); ++k) {
-      outer[k].count = m_rows[k].count;
+      m_outer_rows[k].count = m_rows[k].count;
       for (int e = 0; e < m_rows[k].count; ++e) {
-        outer[k].rows[e] = m_rows[k].entries[e].row;
-        outer[k].weights[e] = m_rows[k].entries[e].weight;
+        m_outer_rows[k].rows[e] = m_rows[k].entries[e].row;
+        m_outer_rows[k].weights[e] = m_rows[k].entries[e].weight;
       }
     }
-    m_blocks.set_outer_rows(outer);
+    m_blocks.set_outer_rows(m_outer_rows);
     m_row_terms.resize(m_rows.size());
   }
 
@@ -333,33 +357,68 @@ class JointSystem {
     m_row_forces.resize(m_rows.size());
   }
 
+  /// Per fragment of body bi (m_node_fragment): whether a contact couples it to another
+  /// fragment, body or projectile.
+  std::vector<bool> coupled_fragments(std::size_t bi, Index fragments) const {
+    const ImplicitIntegrator& body = *m_bodies[bi].body;
+    const Eigen::Index offset = m_body_offset[bi], size = body.system_size();
+    std::vector<Index> fragment_of(static_cast<std::size_t>(size / 3), kInvalidIndex);  // per free node
+    for (NodeIndex node = 0; node < body.node_count(); ++node) {
+      const Index r = body.system_row(node);
+      if (r != kInvalidIndex) fragment_of[r / 3] = m_node_fragment[node];
+    }
+    std::vector<bool> coupled(fragments, false);
+    for (const Row& row : m_rows) {
+      std::array<Index, 8> piece{};  // the entry's fragment in this body; kInvalidIndex elsewhere
+      for (int e = 0; e < row.count; ++e) {
+        const Eigen::Index local = row.entries[e].row - offset;
+        piece[e] = local >= 0 && local < size ? fragment_of[local / 3] : kInvalidIndex;
+      }
+      for (int e = 0; e < row.count; ++e) {
+        if (piece[e] == kInvalidIndex) continue;
+        for (int f = 0; f < row.count; ++f) coupled[piece[e]] = coupled[piece[e]] || piece[f] != piece[e];
+      }
+    }
+    return coupled;
+  }
+
   /// Body bi's small fragments as groups of their free nodes' rows, in node order.
-  void add_fragment_groups(std::size_t bi, std::vector<std::vector<Eigen::Index>>& groups) {
+  void add_fragment_groups(std::size_t bi, std::vector<std::vector<Eigen::Index>>& groups,
+                           std::vector<std::vector<Eigen::Index>>& sparse_groups) {
     const ImplicitIntegrator& body = *m_bodies[bi].body;
     const Index fragments = map_node_fragments(m_bodies[bi]);
     std::vector<Index> free_nodes(fragments, 0);
     for (NodeIndex node = 0; node < body.node_count(); ++node) {
       if (body.system_row(node) != kInvalidIndex) ++free_nodes[m_node_fragment[node]];
     }
+    const std::vector<bool> coupled = coupled_fragments(bi, fragments);
     std::vector<Index> group(fragments, kInvalidIndex);
     for (NodeIndex node = 0; node < body.node_count(); ++node) {
       const Index r = body.system_row(node), f = m_node_fragment[node];
       if (r == kInvalidIndex) continue;
-      if (free_nodes[f] > kDenseFragmentNodes) {
+      const bool dense = free_nodes[f] <= kDenseFragmentNodes;
+      if (!dense) {
+        // The body's own preconditioner, until a response's solves show they need the
+        // contacts on it (use_sparse_blocks).
         m_body_needs_own[bi] = true;
-        continue;
+        if (!coupled[f]) {
+          m_body_keeps_own[bi] = true;
+          continue;
+        }
       }
+      auto& set = dense ? groups : sparse_groups;
       if (group[f] == kInvalidIndex) {
-        group[f] = static_cast<Index>(groups.size());
-        groups.emplace_back();
+        group[f] = static_cast<Index>(set.size());
+        set.emplace_back();
       }
-      groups[group[f]].push_back(m_body_offset[bi] + static_cast<Eigen::Index>(r));
+      set[group[f]].push_back(m_body_offset[bi] + static_cast<Eigen::Index>(r));
     }
   }
 
-  /// Body bi's system A on its dense blocks: each covered node's mass term, and each
-  /// covered tet's blocks between its free corners.
-  void add_fragment_systems(std::size_t bi) {
+  /// Body bi's system A on `blocks` (dense or sparse): each covered node's mass term,
+  /// and each covered tet's blocks between its free corners.
+  template <typename Blocks>
+  void add_fragment_systems(std::size_t bi, Blocks& blocks) {
     const ImplicitIntegrator& body = *m_bodies[bi].body;
     const Eigen::Index offset = m_body_offset[bi];
     const auto global_row = [&](NodeIndex node) -> Eigen::Index {
@@ -368,8 +427,8 @@ class JointSystem {
     };
     for (NodeIndex node = 0; node < body.node_count(); ++node) {
       const Eigen::Index r = global_row(node);
-      if (r >= 0 && m_blocks.covers(r)) {
-        m_blocks.add(r, r, body.system_mass_scale() * body.node_masses()[node] * Mat3::Identity());
+      if (r >= 0 && blocks.covers(r)) {
+        blocks.add(r, r, body.system_mass_scale() * body.node_masses()[node] * Mat3::Identity());
       }
     }
     const Matrix4Xu& tets = body.elasticity().tets();
@@ -378,13 +437,13 @@ class JointSystem {
       bool covered = false;
       for (int c = 0; c < 4; ++c) {
         rows[c] = global_row(tets(c, t));
-        covered = covered || (rows[c] >= 0 && m_blocks.covers(rows[c]));
+        covered = covered || (rows[c] >= 0 && blocks.covers(rows[c]));
       }
       if (!covered) continue;
       for (int i = 0; i < 4; ++i) {
         for (int j = 0; j < 4; ++j) {
           if (rows[i] >= 0 && rows[j] >= 0) {
-            m_blocks.add(rows[i], rows[j], body.system_tet_block(static_cast<TetIndex>(t), i, j));
+            blocks.add(rows[i], rows[j], body.system_tet_block(static_cast<TetIndex>(t), i, j));
           }
         }
       }
@@ -482,6 +541,12 @@ class JointSystem {
   std::vector<Row> m_rows;
   std::vector<Index> m_contact_row;
   BlockJacobi m_blocks;                 ///< small fragments' and projectiles' blocks
+  std::vector<BlockJacobi::OuterRows> m_outer_rows;  ///< each row's entries, for the blocks
+  /// Large fragments a contact couples to another piece: their groups until
+  /// use_sparse_blocks(), then their blocks.
+  std::vector<std::vector<Eigen::Index>> m_sparse_candidates;
+  SparseBlocks m_sparse;
+  bool m_sparse_active = false;
   std::vector<Mat3> m_row_terms;        ///< each row's κ n nᵀ (if active) + η (I − n nᵀ)
   /// One row's entry at a node: multiply() adds weight · m_row_forces[row] there.
   struct NodeEntry {
@@ -493,6 +558,7 @@ class JointSystem {
   std::vector<NodeEntry> m_node_entries;
   std::vector<Vec3> m_row_forces;       ///< multiply()'s scratch
   std::vector<bool> m_body_needs_own;   ///< per body: a fragment too large for a block
+  std::vector<bool> m_body_keeps_own;   ///< per body: one even once the sparse blocks are used
   Eigen::VectorXd m_in, m_out;  // scratch for the bodies' blocks
   std::vector<Index> m_node_fragment;  // scratch for balance_fragments
   Eigen::VectorXd m_net, m_mass_delta, m_shift;  // momentum_shifts' Σf; apply()'s 𝒜δ and shift
@@ -690,7 +756,9 @@ ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::
   const int max_outer = std::max(settings.iterations, any_friction ? 2 : 1);
   for (int outer = 0; outer < max_outer; ++outer) {
     solver.set_friction();
-    report.cg_iterations += solver.step();
+    const int iterations = solver.step();
+    report.cg_iterations += iterations;
+    if (iterations > settings.sparse_blocks_after) system.use_sparse_blocks();
     ++report.outer_iterations;
     const auto [violation, unmet] = solver.update_multipliers(allowed);
     report.largest_violation = violation;

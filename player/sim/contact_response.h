@@ -25,10 +25,12 @@
 ///
 /// The preconditioner is block Jacobi: each small fragment's (and projectile's) dense
 /// block of that operator, its contacts' terms included, solved exactly; each larger
-/// fragment keeps its body's own preconditioner, which cannot see the contacts. A
-/// shattered body is hundreds of small fragments in a pile, coupled mostly through
-/// their contacts: there the blocks cut the response's CG iterations severalfold
-/// (BENCHMARKS.md, "Self-collision among hundreds of fragments").
+/// fragment keeps its body's own preconditioner, which cannot see the contacts, until a
+/// solve runs long: then each larger fragment that touches another piece gets a sparse
+/// block of its own likewise (sparse_blocks.h, `sparse_blocks_after`). A shattered body
+/// is hundreds of small fragments in a pile, coupled mostly through their contacts:
+/// there the blocks cut the response's CG iterations severalfold (BENCHMARKS.md,
+/// "Self-collision among hundreds of fragments").
 ///
 /// Friction is Coulomb, lagged (as in IPC, Li et al. 2020): a tangential damping
 /// η_k = μ λ_k / max(|v_t|, ε) from the previous outer iteration, so its force is
@@ -89,6 +91,16 @@ struct ContactResponseSettings {
   /// light projectile's rows (0.1 kg against 167 kg fragments) were never solved.
   double inner_reduction = 0.1;
   int max_cg_iterations = 500;   ///< per outer iteration
+  /// An outer iteration whose solve took more conjugate-gradient iterations than this
+  /// makes the rest of the response precondition each large fragment (over 64 free
+  /// nodes) that a contact couples to another piece with a sparse block of its own, its
+  /// contacts' terms included, in place of its body's own preconditioner, which cannot
+  /// see them. The blocks cost a sparse factorization per outer iteration, which pays
+  /// only where the solves without them are long: on the bunny at toughness 0.2, while a
+  /// fragment of hundreds of nodes lay among a hundred small ones, the response took
+  /// 746 conjugate-gradient iterations per step without them and 263 with them;
+  /// ordinary solves take 2-20 and never make them.
+  int sparse_blocks_after = 40;
 };
 
 struct ContactResponseReport {

@@ -415,6 +415,7 @@ void World::collide(double dt, StepReport& report) {
   cs.gravity = m_settings.step.gravity;
   cs.self_collision = m_settings.self_collision;
   cs.iterations = m_settings.contact_iterations;
+  cs.sparse_blocks_after = m_settings.contact_sparse_blocks_after;
   cs.impulses = &m_contact_impulses;
   StepContacts contacts(collision_bodies, m_environment, m_projectiles, m_projectile_start, cs);
   const bool restitutes = m_settings.restitution_within_budget && contacts.restituting() > 0;

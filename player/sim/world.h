@@ -53,6 +53,8 @@ struct WorldSettings {
   bool self_collision = false;
   CollisionPoints collision_points = CollisionPoints::Spheres;
   int contact_iterations = 8;
+  /// ContactResponseSettings::sparse_blocks_after; for comparison, a large value: never.
+  int contact_sparse_blocks_after = 40;
   /// Each fragment's rigid rotation within a step moves on an arc, not a line
   /// (rigid_rotation.h); off: plain backward Euler, for comparison.
   bool rotate_on_arcs = true;

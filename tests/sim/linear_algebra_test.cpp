@@ -1,6 +1,6 @@
 // The step's numerical kernels: the fast polar rotation, the closed-form warped
 // stiffness product, conjugate gradients, the sparse Cholesky factor and the contact
-// response's block-Jacobi preconditioner.
+// response's block-Jacobi preconditioner, dense and sparse blocks.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,6 +12,7 @@
 #include "player/sim/block_jacobi.h"
 #include "player/sim/conjugate_gradient.h"
 #include "player/sim/corotated_elasticity.h"
+#include "player/sim/sparse_blocks.h"
 #include "player/sim/sparse_cholesky.h"
 #include "tests/support/procedural.h"
 
@@ -399,6 +400,107 @@ TEST(BlockJacobi, ABlockThatIsNotPositiveDefiniteFallsBackToItsDiagonal) {
   blocks.add(0, 3, 3.0 * Mat3::Identity());
   blocks.add(3, 0, 3.0 * Mat3::Identity());
   blocks.factor();
+  const Eigen::VectorXd r = Eigen::VectorXd::Ones(6);
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(6);
+  blocks.solve(r, z);
+  EXPECT_EQ(z.head<3>(), Vec3::Ones());
+  EXPECT_EQ(z.tail<3>(), Vec3::Constant(0.25));
+}
+
+/// The dense matrix of `group`'s rows of A plus each term's Σ wₑ w_f T at its rows in
+/// the group, and r on those rows.
+std::pair<Eigen::MatrixXd, Eigen::VectorXd> group_block(const std::vector<Eigen::Index>& group, const Eigen::MatrixXd& A,
+                                                        std::span<const BlockJacobi::OuterRows> terms,
+                                                        std::span<const Mat3> values, const Eigen::VectorXd& r) {
+  const auto n = static_cast<Eigen::Index>(group.size());
+  const auto local = [&](Eigen::Index row) -> Eigen::Index {
+    const auto found = std::find(group.begin(), group.end(), row);
+    return found == group.end() ? -1 : static_cast<Eigen::Index>(found - group.begin());
+  };
+  Eigen::MatrixXd block(3 * n, 3 * n);
+  Eigen::VectorXd rhs(3 * n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    rhs.segment<3>(3 * i) = r.segment<3>(group[i]);
+    for (Eigen::Index j = 0; j < n; ++j) block.block<3, 3>(3 * i, 3 * j) = A.block<3, 3>(group[i], group[j]);
+  }
+  for (std::size_t k = 0; k < terms.size(); ++k) {
+    for (int e = 0; e < terms[k].count; ++e) {
+      for (int f = 0; f < terms[k].count; ++f) {
+        const Eigen::Index a = local(terms[k].rows[e]), b = local(terms[k].rows[f]);
+        if (a >= 0 && b >= 0) block.block<3, 3>(3 * a, 3 * b) += terms[k].weights[e] * terms[k].weights[f] * values[k];
+      }
+    }
+  }
+  return {block, rhs};
+}
+
+TEST(SparseBlocks, SolveEachGroupsBlockWithItsTermsExactlyAndLeaveOtherRowsAlone) {
+  std::mt19937 rng(7);
+  // A sparse operator: a chain of 12 nodes, each coupled to the next (its blocks
+  // diagonally dominant, so positive definite).
+  constexpr Eigen::Index kNodes = 12;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * kNodes, 3 * kNodes);
+  for (Eigen::Index a = 0; a < kNodes; ++a) {
+    A.block<3, 3>(3 * a, 3 * a) = 8.0 * Mat3::Identity();
+    if (a + 1 < kNodes) {
+      const Mat3 c = random_matrix(rng, 1.0);
+      A.block<3, 3>(3 * a, 3 * a + 3) = c;
+      A.block<3, 3>(3 * a + 3, 3 * a) = c.transpose();
+    }
+  }
+  const std::vector<std::vector<Eigen::Index>> groups{{0, 3, 6, 9, 12}, {30, 21, 24, 27}};  // node 5, 11 in none
+  SparseBlocks blocks;
+  blocks.set_groups(groups, A.rows());
+  for (Eigen::Index a = 0; a < kNodes; ++a) {
+    for (Eigen::Index b = 0; b < kNodes; ++b) {
+      if (!A.block<3, 3>(3 * a, 3 * b).isZero()) blocks.add(3 * a, 3 * b, A.block<3, 3>(3 * a, 3 * b));
+    }
+  }
+  // Two contact rows: one across both groups and a node in none, one inside the first
+  // group between nodes A does not couple (a block outside A's pattern).
+  BlockJacobi::OuterRows across, inside;
+  across.count = 3;
+  across.rows = {6, 24, 15};
+  across.weights = {0.5, -1.0, 0.25};
+  inside.count = 2;
+  inside.rows = {0, 12};
+  inside.weights = {1.0, -1.0};
+  const std::vector<BlockJacobi::OuterRows> terms{across, inside};
+  blocks.set_outer_rows(terms);
+  const Vec3 n = Vec3(2.0, -1.0, 2.0) / 3.0;
+  const Mat3 term = 3.0 * n * n.transpose() + 0.5 * (Mat3::Identity() - n * n.transpose());
+  const Eigen::VectorXd r = Eigen::VectorXd::LinSpaced(A.rows(), -2.0, 1.0);
+  // Twice, with other values: each time from the base, not from the last values.
+  for (const double scale : {10.0, 1.0}) {
+    const std::vector<Mat3> values{scale * term, 2.0 * scale * term};
+    blocks.set_outer_terms(values);
+    Eigen::VectorXd z = Eigen::VectorXd::Constant(A.rows(), 7.0);
+    blocks.solve(r, z);
+    for (const std::vector<Eigen::Index>& group : groups) {
+      const auto [block, rhs] = group_block(group, A, terms, values, r);
+      const Eigen::VectorXd expected = block.llt().solve(rhs);
+      for (std::size_t i = 0; i < group.size(); ++i) {
+        EXPECT_LT((z.segment<3>(group[i]) - expected.segment<3>(3 * static_cast<Eigen::Index>(i))).norm(),
+                  1e-12 * expected.norm())
+            << "row " << group[i] << ", scale " << scale;
+      }
+    }
+    EXPECT_FALSE(blocks.covers(15));
+    EXPECT_EQ(z.segment<3>(15), Vec3::Constant(7.0));
+    EXPECT_EQ(z.segment<3>(33), Vec3::Constant(7.0));
+  }
+}
+
+TEST(SparseBlocks, ABlockThatIsNotPositiveDefiniteFallsBackToItsDiagonal) {
+  SparseBlocks blocks;
+  blocks.set_groups({{0, 3}}, 6);
+  // [I 3I; 3I 4I]: its determinant per axis is 4 − 9 < 0.
+  blocks.add(0, 0, Mat3::Identity());
+  blocks.add(3, 3, 4.0 * Mat3::Identity());
+  blocks.add(0, 3, 3.0 * Mat3::Identity());
+  blocks.add(3, 0, 3.0 * Mat3::Identity());
+  blocks.set_outer_rows({});
+  blocks.set_outer_terms({});
   const Eigen::VectorXd r = Eigen::VectorXd::Ones(6);
   Eigen::VectorXd z = Eigen::VectorXd::Zero(6);
   blocks.solve(r, z);
