@@ -102,6 +102,7 @@ void SparseBlocks::add(Eigen::Index row_a, Eigen::Index row_b, const Mat3& term)
   const Node &a = m_node[row_a / 3], &b = m_node[row_b / 3];
   if (a.group == kNone || a.group != b.group) return;
   Group& g = *m_groups[a.group];
+  FISSURE_ASSERT(g.value_index.empty());  // the pattern is not fixed yet
   g.base[g.slot(a.local, b.local)] += term;
 }
 

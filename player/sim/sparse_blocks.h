@@ -34,7 +34,8 @@ class SparseBlocks {
   [[nodiscard]] bool empty() const { return m_groups.empty(); }
 
   /// Adds `term` to the 3×3 block (row_a, row_b) of the base if both rows are in one
-  /// group; otherwise it is outside every block and dropped.
+  /// group; otherwise it is outside every block and dropped. Only before
+  /// set_outer_rows(), which fixes the pattern.
   void add(Eigen::Index row_a, Eigen::Index row_b, const Mat3& term);
   /// Ends the set-up: finds the pairs e, f of each term's rows that fall in one group
   /// (for a G that takes Σₑ wₑ x(rows[e])), whose blocks join the pattern, and analyses
