@@ -76,6 +76,7 @@ struct CollisionSettings {
   bool self_collision = false;       ///< between fragments and between bodies
   int iterations = 8;                ///< augmented-Lagrangian iterations of the response, at most
   int sparse_blocks_after = 40;      ///< ContactResponseSettings::sparse_blocks_after
+  bool sparse_blocks_from_start = false;  ///< ContactResponseSettings::sparse_blocks_from_start
   ContactImpulses* impulses = nullptr;  ///< in: last step's impulses (warm start); out: this step's
 };
 
@@ -88,6 +89,7 @@ struct ContactCounts {
   std::size_t pairs_tested = 0;  ///< narrow-phase point pairs of the self-collision broad phase
   std::size_t response_iterations = 0;  ///< conjugate-gradient iterations of the contact response
   std::size_t restituting = 0;   ///< contacts whose target restitution raised (impacts above the resting speed)
+  bool ran_long = false;         ///< the response's ContactResponseReport::ran_long
 };
 
 struct ContactConstraint;  // contact_response.h

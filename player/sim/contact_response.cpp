@@ -151,11 +151,15 @@ class JointSystem {
 
   [[nodiscard]] Eigen::Index size() const { return m_size; }
 
-  /// From now on, each large fragment that a contact couples to another piece is
-  /// preconditioned by its own sparse block, its contacts' terms included, in place of
-  /// its body's own preconditioner; false if there is none. Made on demand: a block costs
-  /// a sparse factorization per outer iteration, which pays only where the solves
-  /// without it are long (a large fragment in a pile of small ones).
+  /// From now on, each large fragment a contact touches is preconditioned by its own
+  /// sparse block, its contacts' terms included, in place of its body's own
+  /// preconditioner; false if there is none. Made on demand: a block costs a sparse
+  /// factorization per outer iteration, which pays only where the solves without it are
+  /// long (a large fragment in a pile of small ones). Once they are used, no body's own
+  /// preconditioner is: it would solve over the whole body, every fragment of it, for
+  /// each conjugate-gradient iteration, to serve the large fragments that touch only
+  /// obstacles. A fragment no contact touches is left out: its residual is zero and
+  /// stays zero, since no term couples it to another.
   bool use_sparse_blocks() {
     if (m_sparse_active || m_sparse_candidates.empty()) return false;
     m_sparse.set_groups(std::move(m_sparse_candidates), m_size);
@@ -164,7 +168,7 @@ class JointSystem {
       if (m_body_offset[bi] >= 0) add_fragment_systems(bi, m_sparse);
     }
     m_sparse.set_outer_rows(m_outer_rows);  // factored by the next update_blocks()
-    m_body_needs_own = m_body_keeps_own;
+    m_body_needs_own.assign(m_bodies.size(), false);
     m_sparse_active = true;
     return true;
   }
@@ -301,7 +305,6 @@ class JointSystem {
   void build_blocks() {
     std::vector<std::vector<Eigen::Index>> groups, sparse_groups;
     m_body_needs_own.assign(m_bodies.size(), false);
-    m_body_keeps_own.assign(m_bodies.size(), false);
     for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
       if (m_body_offset[bi] >= 0) add_fragment_groups(bi, groups, sparse_groups);
     }
@@ -357,9 +360,8 @@ class JointSystem {
     m_row_forces.resize(m_rows.size());
   }
 
-  /// Per fragment of body bi (m_node_fragment): whether a contact couples it to another
-  /// fragment, body or projectile.
-  std::vector<bool> coupled_fragments(std::size_t bi, Index fragments) const {
+  /// Per fragment of body bi (m_node_fragment): whether a contact row has an entry on it.
+  std::vector<bool> fragments_in_contact(std::size_t bi, Index fragments) const {
     const ImplicitIntegrator& body = *m_bodies[bi].body;
     const Eigen::Index offset = m_body_offset[bi], size = body.system_size();
     std::vector<Index> fragment_of(static_cast<std::size_t>(size / 3), kInvalidIndex);  // per free node
@@ -367,19 +369,14 @@ class JointSystem {
       const Index r = body.system_row(node);
       if (r != kInvalidIndex) fragment_of[r / 3] = m_node_fragment[node];
     }
-    std::vector<bool> coupled(fragments, false);
+    std::vector<bool> touched(fragments, false);
     for (const Row& row : m_rows) {
-      std::array<Index, 8> piece{};  // the entry's fragment in this body; kInvalidIndex elsewhere
       for (int e = 0; e < row.count; ++e) {
         const Eigen::Index local = row.entries[e].row - offset;
-        piece[e] = local >= 0 && local < size ? fragment_of[local / 3] : kInvalidIndex;
-      }
-      for (int e = 0; e < row.count; ++e) {
-        if (piece[e] == kInvalidIndex) continue;
-        for (int f = 0; f < row.count; ++f) coupled[piece[e]] = coupled[piece[e]] || piece[f] != piece[e];
+        if (local >= 0 && local < size) touched[fragment_of[local / 3]] = true;
       }
     }
-    return coupled;
+    return touched;
   }
 
   /// Body bi's small fragments as groups of their free nodes' rows, in node order.
@@ -391,7 +388,9 @@ class JointSystem {
     for (NodeIndex node = 0; node < body.node_count(); ++node) {
       if (body.system_row(node) != kInvalidIndex) ++free_nodes[m_node_fragment[node]];
     }
-    const std::vector<bool> coupled = coupled_fragments(bi, fragments);
+    const bool any_large =
+        std::any_of(free_nodes.begin(), free_nodes.end(), [](Index n) { return n > kDenseFragmentNodes; });
+    const std::vector<bool> in_contact = any_large ? fragments_in_contact(bi, fragments) : std::vector<bool>();
     std::vector<Index> group(fragments, kInvalidIndex);
     for (NodeIndex node = 0; node < body.node_count(); ++node) {
       const Index r = body.system_row(node), f = m_node_fragment[node];
@@ -401,10 +400,7 @@ class JointSystem {
         // The body's own preconditioner, until a response's solves show they need the
         // contacts on it (use_sparse_blocks).
         m_body_needs_own[bi] = true;
-        if (!coupled[f]) {
-          m_body_keeps_own[bi] = true;
-          continue;
-        }
+        if (!in_contact[f]) continue;
       }
       auto& set = dense ? groups : sparse_groups;
       if (group[f] == kInvalidIndex) {
@@ -542,8 +538,8 @@ class JointSystem {
   std::vector<Index> m_contact_row;
   BlockJacobi m_blocks;                 ///< small fragments' and projectiles' blocks
   std::vector<BlockJacobi::OuterRows> m_outer_rows;  ///< each row's entries, for the blocks
-  /// Large fragments a contact couples to another piece: their groups until
-  /// use_sparse_blocks(), then their blocks.
+  /// Large fragments a contact touches: their groups until use_sparse_blocks(), then
+  /// their blocks.
   std::vector<std::vector<Eigen::Index>> m_sparse_candidates;
   SparseBlocks m_sparse;
   bool m_sparse_active = false;
@@ -558,7 +554,6 @@ class JointSystem {
   std::vector<NodeEntry> m_node_entries;
   std::vector<Vec3> m_row_forces;       ///< multiply()'s scratch
   std::vector<bool> m_body_needs_own;   ///< per body: a fragment too large for a block
-  std::vector<bool> m_body_keeps_own;   ///< per body: one even once the sparse blocks are used
   Eigen::VectorXd m_in, m_out;  // scratch for the bodies' blocks
   std::vector<Index> m_node_fragment;  // scratch for balance_fragments
   Eigen::VectorXd m_net, m_mass_delta, m_shift;  // momentum_shifts' Σf; apply()'s 𝒜δ and shift
@@ -754,11 +749,15 @@ ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::
   const bool any_friction = std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.friction > 0.0; });
   AugmentedLagrangian solver(system, settings);
   const int max_outer = std::max(settings.iterations, any_friction ? 2 : 1);
+  if (settings.sparse_blocks_from_start) system.use_sparse_blocks();
   for (int outer = 0; outer < max_outer; ++outer) {
     solver.set_friction();
     const int iterations = solver.step();
     report.cg_iterations += iterations;
-    if (iterations > settings.sparse_blocks_after) system.use_sparse_blocks();
+    if (iterations > settings.sparse_blocks_after) {
+      report.ran_long = true;
+      system.use_sparse_blocks();
+    }
     ++report.outer_iterations;
     const auto [violation, unmet] = solver.update_multipliers(allowed);
     report.largest_violation = violation;

@@ -26,11 +26,11 @@
 /// The preconditioner is block Jacobi: each small fragment's (and projectile's) dense
 /// block of that operator, its contacts' terms included, solved exactly; each larger
 /// fragment keeps its body's own preconditioner, which cannot see the contacts, until a
-/// solve runs long: then each larger fragment that touches another piece gets a sparse
-/// block of its own likewise (sparse_blocks.h, `sparse_blocks_after`). A shattered body
-/// is hundreds of small fragments in a pile, coupled mostly through their contacts:
-/// there the blocks cut the response's CG iterations severalfold (BENCHMARKS.md,
-/// "Self-collision among hundreds of fragments").
+/// solve runs long: then each larger fragment that a contact touches gets a sparse block
+/// of its own likewise (sparse_blocks.h, `sparse_blocks_after`), and no body's own
+/// preconditioner is used. A shattered body is hundreds of small fragments in a pile,
+/// coupled mostly through their contacts: there the blocks cut the response's CG
+/// iterations severalfold (BENCHMARKS.md, "Self-collision among hundreds of fragments").
 ///
 /// Friction is Coulomb, lagged (as in IPC, Li et al. 2020): a tangential damping
 /// η_k = μ λ_k / max(|v_t|, ε) from the previous outer iteration, so its force is
@@ -93,20 +93,26 @@ struct ContactResponseSettings {
   int max_cg_iterations = 500;   ///< per outer iteration
   /// An outer iteration whose solve took more conjugate-gradient iterations than this
   /// makes the rest of the response precondition each large fragment (over 64 free
-  /// nodes) that a contact couples to another piece with a sparse block of its own, its
-  /// contacts' terms included, in place of its body's own preconditioner, which cannot
-  /// see them. The blocks cost a sparse factorization per outer iteration, which pays
-  /// only where the solves without them are long: on the bunny at toughness 0.2, while a
-  /// fragment of hundreds of nodes lay among a hundred small ones, the response took
-  /// 746 conjugate-gradient iterations per step without them and 263 with them;
-  /// ordinary solves take 2-20 and never make them.
+  /// nodes) that a contact touches with a sparse block of its own, its contacts' terms
+  /// included, in place of its body's own preconditioner, which cannot see them. The
+  /// blocks cost a sparse factorization per outer iteration, which pays only where the
+  /// solves without them are long: on the bunny at toughness 0.2, while a fragment of
+  /// hundreds of nodes lay among a hundred small ones, the response took 746
+  /// conjugate-gradient iterations per step without them and 263 with them; ordinary
+  /// solves take 2-20 and never make them.
   int sparse_blocks_after = 40;
+  /// Make the sparse blocks before the first solve: the caller's memory that recent
+  /// responses ran long. In a pile, every response's first solve ran long again on its
+  /// body's own preconditioner before the blocks took over (most of the response's
+  /// conjugate-gradient iterations, and each of them a solve over the whole body).
+  bool sparse_blocks_from_start = false;
 };
 
 struct ContactResponseReport {
   int outer_iterations = 0;
   int cg_iterations = 0;           ///< summed over outer iterations
   double largest_violation = 0.0;  ///< max_k (target_k − n · v_rel) after the response [m/s]
+  bool ran_long = false;           ///< a solve took more than sparse_blocks_after iterations
 };
 
 /// Corrects the velocities of `bodies` and `projectiles` so the contacts hold, and moves

@@ -416,6 +416,7 @@ void World::collide(double dt, StepReport& report) {
   cs.self_collision = m_settings.self_collision;
   cs.iterations = m_settings.contact_iterations;
   cs.sparse_blocks_after = m_settings.contact_sparse_blocks_after;
+  cs.sparse_blocks_from_start = m_sparse_block_substeps > 0;
   cs.impulses = &m_contact_impulses;
   StepContacts contacts(collision_bodies, m_environment, m_projectiles, m_projectile_start, cs);
   const bool restitutes = m_settings.restitution_within_budget && contacts.restituting() > 0;
@@ -430,6 +431,8 @@ void World::collide(double dt, StepReport& report) {
     const double limit = substep_energy_limit();
     if (total_energy() > limit) keep_restitution_within(contacts, limit, report);
   }
+  m_sparse_block_substeps = counts.ran_long ? m_settings.contact_sparse_block_memory
+                                            : std::max(m_sparse_block_substeps - 1, 0);
   report.collisions += seconds_since(start);
 }
 

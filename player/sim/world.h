@@ -55,6 +55,10 @@ struct WorldSettings {
   int contact_iterations = 8;
   /// ContactResponseSettings::sparse_blocks_after; for comparison, a large value: never.
   int contact_sparse_blocks_after = 40;
+  /// After a substep whose contact response ran long (ContactResponseReport::ran_long),
+  /// this many more substeps make the response's sparse blocks before its first solve
+  /// (ContactResponseSettings::sparse_blocks_from_start); 0: never, for comparison.
+  int contact_sparse_block_memory = 16;
   /// Each fragment's rigid rotation within a step moves on an arc, not a line
   /// (rigid_rotation.h); off: plain backward Euler, for comparison.
   bool rotate_on_arcs = true;
@@ -352,6 +356,7 @@ class World {
   double m_linear_end_put_in = 0;            ///< and energy_put_in() after it
   std::vector<Matrix3Xd> m_previous_positions;  ///< per body, at the start of the last whole step
   ContactImpulses m_contact_impulses;  ///< the last step's, to warm-start the next
+  int m_sparse_block_substeps = 0;     ///< substeps left to start with them (contact_sparse_block_memory)
   std::vector<Index> m_node_fragment;  ///< scratch for rotate_fragments_on_arcs
   std::vector<Index> m_fragment_before;  ///< scratch for fracture_bodies: a body's tet fragments before its splits
   Checkpoint m_checkpoint;

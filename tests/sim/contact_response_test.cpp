@@ -125,8 +125,9 @@ TEST(ContactResponse, APileEndsTheSameWhateverTheThreadCount) {
 }
 
 /// What a slab (98 nodes, unbreakable: one fragment too large for a dense block) did
-/// with a 3×3×2 grid of toughness 0 shattering on it, in `steps` steps.
-Pile run_pile_on_slab(int sparse_blocks_after, int steps) {
+/// with a 3×3×2 grid of toughness 0 shattering on it, in `steps` steps (WorldSettings's
+/// contact_sparse_blocks_after and contact_sparse_block_memory).
+Pile run_pile_on_slab(int sparse_blocks_after, int steps, int sparse_block_memory = 16) {
   const TetMesh slab = testing::grid_cage(Vec3(0, 0, 0.001), Vec3(0.6, 0.6, 0.101), 6, 6, 1);
   const TetMesh grid = testing::grid_cage(Vec3(0.15, 0.15, 0.12), Vec3(0.45, 0.45, 0.32), 3, 3, 2);
   const Material material{.density = 1000, .youngs_modulus = 2e5, .poisson_ratio = 0.3};
@@ -141,6 +142,7 @@ Pile run_pile_on_slab(int sparse_blocks_after, int steps) {
   settings.fracture = true;
   settings.self_collision = true;
   settings.contact_sparse_blocks_after = sparse_blocks_after;
+  settings.contact_sparse_block_memory = sparse_block_memory;
   World world({base, pile}, environment, {}, settings);
   Pile result;
   for (int i = 0; i < steps; ++i) {
@@ -171,6 +173,21 @@ TEST(ContactResponse, ALargeFragmentInAPileGetsASparseBlockThatShortensTheSolves
   EXPECT_GT(with_block.fragments, 20u);  // it did shatter onto the slab
   EXPECT_LT(with_block.deepest, 0.5 * with_block.smallest_radius);
   EXPECT_LT(static_cast<double>(with_block.cg_iterations), 0.6 * static_cast<double>(without.cg_iterations));
+}
+
+// Once a response's solve ran long, the next substeps' responses make the sparse blocks
+// before their first solve (WorldSettings::contact_sparse_block_memory): forgetting, each
+// response ran its first solve long again on the body's own preconditioner. With the
+// blocks after 15 iterations, this pile took 1,967 CG iterations remembering and 3,222
+// forgetting (portable build: 1,982 and 3,071). At 40, the default, it never runs long.
+TEST(ContactResponse, AfterALongSolveTheNextResponsesStartWithTheSparseBlocks) {
+  const Pile remembering = run_pile_on_slab(15, 60, 16);
+  const Pile forgetting = run_pile_on_slab(15, 60, 0);
+  std::printf("pile on a slab, blocks after 15 iterations, 60 steps: %zu response CG iterations remembering, %zu "
+              "forgetting; deepest sphere %.3g and %.3g m\n",
+              remembering.cg_iterations, forgetting.cg_iterations, remembering.deepest, forgetting.deepest);
+  EXPECT_LT(remembering.deepest, 0.5 * remembering.smallest_radius);
+  EXPECT_LT(static_cast<double>(remembering.cg_iterations), 0.75 * static_cast<double>(forgetting.cg_iterations));
 }
 
 /// One body in two pieces: a cube landing hard on the ground and, 1 m above it, a cube
