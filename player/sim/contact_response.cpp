@@ -211,9 +211,11 @@ class JointSystem {
     }
   }
 
-  /// The dense blocks (small fragments, projectiles) exactly, contacts included; the
-  /// bodies' own preconditioners on the rest. The own one sees no row of a block (those
-  /// are zeroed on the way in), so together they stay symmetric.
+  /// The dense blocks (small fragments, projectiles) exactly, contacts included, and the
+  /// sparse ones once made; the bodies' own preconditioners on the rest until then (a
+  /// body needs its own only while no sparse block is made: use_sparse_blocks()). The
+  /// own one sees no row of a dense block (those are zeroed on the way in), so together
+  /// they stay symmetric.
   void precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) {
     z = Eigen::VectorXd::Zero(r.size());
     for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
@@ -221,7 +223,7 @@ class JointSystem {
       const Eigen::Index offset = m_body_offset[bi], n = m_bodies[bi].body->system_size();
       m_in = r.segment(offset, n);
       for (Eigen::Index row = 0; row < n; row += 3) {
-        if (m_blocks.covers(offset + row) || m_sparse.covers(offset + row)) m_in.segment<3>(row).setZero();
+        if (m_blocks.covers(offset + row)) m_in.segment<3>(row).setZero();
       }
       m_bodies[bi].body->precondition_system(m_in, m_out);
       z.segment(offset, n) = m_out;
