@@ -345,7 +345,7 @@ StepContacts::StepContacts(std::span<CollisionBody> bodies, const Environment& e
 
 StepContacts::~StepContacts() = default;
 
-ContactCounts StepContacts::respond(double restitution_share) {
+ContactCounts StepContacts::respond(double restitution_share, int iterations) {
   const double h = m_settings.dt;
   for (std::size_t k = 0; k < m_constraints.size(); ++k) {
     ContactConstraint& c = m_constraints[k];
@@ -360,13 +360,14 @@ ContactCounts StepContacts::respond(double restitution_share) {
   m_answered = true;
   ContactResponseSettings response;
   response.dt = h;
-  response.iterations = m_settings.iterations;
+  response.iterations = iterations > 0 ? iterations : m_settings.iterations;
   response.sparse_blocks_after = m_settings.sparse_blocks_after;
   response.sparse_blocks_from_start = m_settings.sparse_blocks_from_start;
   response.reference_speed = m_settings.gravity.norm() * h;
   const ContactResponseReport outcome = respond_to_contacts(m_bodies, m_projectiles, m_constraints, response);
   ContactCounts counts = m_counts;
   counts.response_iterations = outcome.cg_iterations;
+  counts.responses = 1;
   counts.ran_long = outcome.ran_long;
   // Answering again (World::keep_restitution_within) meets the same pile.
   m_settings.sparse_blocks_from_start = m_settings.sparse_blocks_from_start || outcome.ran_long;

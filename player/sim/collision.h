@@ -88,6 +88,7 @@ struct ContactCounts {
   std::size_t swept = 0;         ///< contacts whose end states do not overlap: only the swept test caught them
   std::size_t pairs_tested = 0;  ///< narrow-phase point pairs of the self-collision broad phase
   std::size_t response_iterations = 0;  ///< conjugate-gradient iterations of the contact response
+  std::size_t responses = 0;     ///< contact responses solved (World answers a substep twice to limit restitution)
   std::size_t restituting = 0;   ///< contacts whose target restitution raised (impacts above the resting speed)
   bool ran_long = false;         ///< the response's ContactResponseReport::ran_long
 };
@@ -108,7 +109,8 @@ class StepContacts {
   /// Corrects the bodies and projectiles so every contact holds, with `restitution_share`
   /// ∈ [0, 1] of each contact's restitution (0: inelastic). Answers the motion the
   /// bodies have: to answer again, first restore the motion they had before.
-  ContactCounts respond(double restitution_share);
+  /// `iterations`: the augmented-Lagrangian iterations at most (0: the settings').
+  ContactCounts respond(double restitution_share, int iterations = 0);
   /// Contacts whose restitution asks for more than the inelastic target.
   [[nodiscard]] std::size_t restituting() const { return m_counts.restituting; }
 

@@ -65,6 +65,11 @@ struct WorldSettings {
   /// Restitution gives back at most what a substep would otherwise lose (World::collide);
   /// off: Newton's rule on every contact alone, for comparison.
   bool restitution_within_budget = true;
+  /// In a pile (a contact response ran long within contact_sparse_block_memory
+  /// substeps), after a substep whose inelastic answer ended above its budget anyway, the
+  /// next substep answers inelastically first and restitution only if there is room
+  /// (World::collide); off: restitution first always, for comparison.
+  bool inelastic_first_in_piles = true;
   /// A substep that ends above its energy budget (its start's energy plus what was put in)
   /// is solved again exactly (ImplicitIntegrator::solve_exactly) where its linear solve
   /// gained: from that answer turned on arcs, with its contacts answered again (Solve); and
@@ -295,6 +300,10 @@ class World {
   /// Answers `contacts` again inelastically and keeps the largest blend of the two
   /// answers within `budget` [J] (the bodies hold the full restitution's answer).
   void keep_restitution_within(StepContacts& contacts, double budget, StepReport& report);
+  /// The same, the other way round: the bodies hold the inelastic answer. Over `budget`,
+  /// it stays and restitution is not tried; within it, `contacts` are answered again
+  /// with full restitution and the largest blend within `budget` kept.
+  void add_restitution_within(StepContacts& contacts, double budget, StepReport& report);
   /// The largest share s ∈ [0, 1] for which the blend of m_inelastic_motion and
   /// m_bounced_motion (energies `inelastic` ≤ budget < `bounced`) keeps `budget`.
   double largest_share_within(double budget, double inelastic, double bounced);
@@ -357,6 +366,9 @@ class World {
   std::vector<Matrix3Xd> m_previous_positions;  ///< per body, at the start of the last whole step
   ContactImpulses m_contact_impulses;  ///< the last step's, to warm-start the next
   int m_sparse_block_substeps = 0;     ///< substeps left to start with them (contact_sparse_block_memory)
+  /// The last substep that restituted ended above its budget even inelastically: the
+  /// next answers inelastically first (collide()).
+  bool m_restitution_futile = false;
   std::vector<Index> m_node_fragment;  ///< scratch for rotate_fragments_on_arcs
   std::vector<Index> m_fragment_before;  ///< scratch for fracture_bodies: a body's tet fragments before its splits
   Checkpoint m_checkpoint;
