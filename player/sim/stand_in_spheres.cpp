@@ -9,6 +9,10 @@ namespace fissure::sim {
 
 namespace {
 
+/// A stand-in's centre moves towards the centroid when the sphere that fits there is
+/// smaller than this share of the centroid's.
+constexpr double kLeastFitShare = 0.1;
+
 /// A tet's volume and the area of each face, face i opposite corner i (kTetFaceNodes).
 std::pair<double, Vec4> volume_and_face_areas(const Matrix3Xd& rest, const Matrix4Xu& tets, TetIndex t) {
   Mat3 edges;
@@ -52,13 +56,19 @@ StandInSpheres::StandInSpheres(const Matrix3Xd& rest, const Matrix4Xu& tets, con
   for (std::size_t t = 0; t < tet_count; ++t) {
     const double fraction = mass != nullptr ? mass->fraction[t] : 1.0;
     if (has_point[t] || !(fraction > 0.0)) continue;
-    if (mass != nullptr) m_barycentric[t] = mass->center_of_mass[t];
     // The distance from barycentric b to the face opposite corner i is b_i times that
     // corner's height, 3V / A_i.
     const auto [volume, areas] = volume_and_face_areas(rest, tets, static_cast<TetIndex>(t));
     const Vec4 heights = 3.0 * volume * areas.cwiseInverse();
-    const double fits = m_barycentric[t].cwiseProduct(heights).minCoeff();
-    m_radius[t] = std::cbrt(std::min(fraction, 1.0)) * std::max(fits, 0.0);
+    const auto fits = [&](const Vec4& b) { return b.cwiseProduct(heights).minCoeff(); };
+    if (mass != nullptr) m_barycentric[t] = mass->center_of_mass[t];
+    // A sliver of solid along a face has its centre of mass on that face, where no
+    // sphere fits: its reserve had radius 0, so it got none, and a one-tet fragment of it
+    // would fall through the ground. Halfway to the centroid, one fits at least half as
+    // large as there.
+    const Vec4 centroid = Vec4::Constant(0.25);
+    if (fits(m_barycentric[t]) < kLeastFitShare * fits(centroid)) m_barycentric[t] = 0.5 * (m_barycentric[t] + centroid);
+    m_radius[t] = std::cbrt(std::min(fraction, 1.0)) * std::max(fits(m_barycentric[t]), 0.0);
   }
 }
 

@@ -52,6 +52,27 @@ TEST(StandInSpheres, ABareTetGetsOneSphereAtItsSolidsCentreThatFitsInsideIt) {
   EXPECT_EQ(stand_ins.add_for(exposed, points), 0u) << "a reserve is spent once";
 }
 
+// A sliver of solid along a face has its centre of mass on that face, where no sphere
+// fits: its reserve had radius 0, so it got no sphere at all. It now sits halfway to the
+// centroid, inside the tet, at least half as large as the centroid's would be.
+TEST(StandInSpheres, ASliverOfSolidOnAFaceStillGetsASphereInsideTheTet) {
+  const OneTet tet;
+  MassDistribution mass{{1e-4}, {Vec4(0.5, 0.3, 0.2, 0.0)}};  // on the face opposite corner 3
+  StandInSpheres stand_ins(tet.rest, tet.tets, EmbeddedPoints{}, &mass);
+  EmbeddedPoints points;
+  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{0, 3}}, points), 1u);
+  const Vec4 halfway = 0.5 * (mass.center_of_mass[0] + Vec4::Constant(0.25));
+  EXPECT_TRUE(points.barycentric[0].isApprox(halfway, 1e-15));
+  const Vec3 centre = tet.rest * points.barycentric[0], centroid = tet.rest * Vec4::Constant(0.25);
+  double nearest = std::numeric_limits<double>::infinity(), at_centroid = nearest;
+  for (int i = 0; i < 4; ++i) {
+    nearest = std::min(nearest, tet.inside_distance(centre, i));
+    at_centroid = std::min(at_centroid, tet.inside_distance(centroid, i));
+  }
+  EXPECT_NEAR(points.radius[0], std::cbrt(1e-4) * nearest, 1e-12 * nearest);
+  EXPECT_GE(nearest, 0.5 * at_centroid);
+}
+
 TEST(StandInSpheres, TetsWithPointsOrWithoutSolidHaveNoReserve) {
   const OneTet tet;
   EmbeddedPoints baked;
