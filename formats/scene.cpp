@@ -345,9 +345,11 @@ constexpr int kMaxContactIterations = 64;  // 8 is the default; a pile's shortfa
 const std::string kSpeedRange = "a speed of at most 1e4 m/s";
 const std::string kPositionRange = "at most 1e6 m from the origin";
 
-void read_contact(const Table& t, double& restitution, double& friction) {
+void read_contact(const Table& t, double& restitution, double& friction, double& rolling_resistance) {
   t.read_number("restitution", restitution, kUnit, "0 <= restitution <= 1");
   t.read_number("friction", friction, kNonNegative, "friction >= 0 (Coulomb coefficient)");
+  t.read_number("rolling_resistance", rolling_resistance, kNonNegative,
+                "rolling_resistance >= 0 (the resisting couple's lever, a share of the sphere's radius)");
 }
 
 /// min and max of an axis-aligned box, both required, min < max in every component.
@@ -367,7 +369,7 @@ void read_box_corners(const Table& t, Vec3& min, Vec3& max) {
 void read_solver(const Table& t, SceneSolverSettings& s) {
   t.allow_only({"dt", "min_dt", "max_substep", "solver", "tolerance", "max_iterations", "preconditioner",
                 "refactor_iterations", "stiffness", "rotation", "exact_when_gaining", "energy_halvings",
-                "contact_iterations", "threads", "max_splits_per_step"});
+                "contact_iterations", "sleep_speed", "sleep_time", "threads", "max_splits_per_step"});
   t.read_number("dt", s.dt, [](double v) { return v > 0 && v <= 1; }, "0 < dt <= 1 [s]");
   t.read_number("min_dt", s.min_dt, [&](double v) { return v >= 0 && v <= s.dt; },
                 "0 <= min_dt <= dt (= " + format_number(s.dt) + ") [s]; 0 means a fixed step");
@@ -389,6 +391,9 @@ void read_solver(const Table& t, SceneSolverSettings& s) {
                  "an integer in 0 … " + std::to_string(kMaxEnergyHalvings) + " (0 = never)");
   t.read_integer("contact_iterations", s.contact_iterations, 1, kMaxContactIterations,
                  "an integer in 1 … " + std::to_string(kMaxContactIterations));
+  t.read_number("sleep_speed", s.sleep_speed, [](double v) { return v >= 0 && v <= 1; },
+                "0 <= sleep_speed <= 1 [m/s]; 0 means nothing sleeps");
+  t.read_number("sleep_time", s.sleep_time, [](double v) { return v > 0 && v <= 1e6; }, "0 < sleep_time [s]");
   t.read_integer("threads", s.threads, 0, kMaxThreads, "an integer in 0 … " + std::to_string(kMaxThreads) + " (0 = all cores)");
   t.read_integer("max_splits_per_step", s.max_splits_per_step, 0, INT_MAX, "an integer >= 0");
 }
@@ -407,7 +412,7 @@ void read_environment(const Table& t, Scene& scene) {
   t.allow_only({"gravity", "ground", "box", "sphere"});
   t.read_vec3("gravity", scene.gravity, kMaxGravity, "a magnitude of at most 1e4 m/s^2 (about 1,000 g)");
   if (const auto ground = t.sub_table("ground", "[environment.ground]")) {
-    ground->allow_only({"normal", "offset", "restitution", "friction"});
+    ground->allow_only({"normal", "offset", "restitution", "friction", "rolling_resistance"});
     SceneGround& g = scene.ground;
     g.enabled = true;
     if (ground->read_vec3("normal", g.normal)) {
@@ -418,26 +423,26 @@ void read_environment(const Table& t, Scene& scene) {
       g.normal.normalize();
     }
     ground->read_number("offset", g.offset, [](double v) { return std::abs(v) <= kMaxDistance; }, "|offset| <= 1e6 [m]");
-    read_contact(*ground, g.restitution, g.friction);
+    read_contact(*ground, g.restitution, g.friction, g.rolling_resistance);
   }
   for (const Table& b : t.table_array("box", "[environment.box]")) {
-    b.allow_only({"min", "max", "restitution", "friction"});
+    b.allow_only({"min", "max", "restitution", "friction", "rolling_resistance"});
     SceneBox& box = scene.boxes.emplace_back();
     read_box_corners(b, box.min, box.max);
-    read_contact(b, box.restitution, box.friction);
+    read_contact(b, box.restitution, box.friction, box.rolling_resistance);
   }
   for (const Table& s : t.table_array("sphere", "[environment.sphere]")) {
-    s.allow_only({"center", "radius", "restitution", "friction"});
+    s.allow_only({"center", "radius", "restitution", "friction", "rolling_resistance"});
     SceneSphere& sphere = scene.spheres.emplace_back();
     sphere.center = s.require_vec3("center", "center = [x, y, z]");
     sphere.radius = s.require_number("radius", kPositive, "radius > 0 [m]", "radius = 0.5");
-    read_contact(s, sphere.restitution, sphere.friction);
+    read_contact(s, sphere.restitution, sphere.friction, sphere.rolling_resistance);
   }
 }
 
 void read_material(const Table& t, SceneMaterial& m) {
   t.allow_only({"density", "youngs_modulus", "poisson_ratio", "toughness", "rayleigh_mass", "rayleigh_stiffness",
-                "restitution", "friction"});
+                "restitution", "friction", "rolling_resistance"});
   t.read_number("density", m.density, kPositive, "density > 0 [kg/m^3]");
   t.read_number("youngs_modulus", m.youngs_modulus, [](double v) { return v > 0 && v <= kMaxYoungsModulus; },
                 "0 < youngs_modulus <= 1e13 [Pa]");
@@ -458,7 +463,7 @@ void read_material(const Table& t, SceneMaterial& m) {
   }
   t.read_number("rayleigh_mass", m.rayleigh_mass, kNonNegative, "rayleigh_mass >= 0 [1/s]");
   t.read_number("rayleigh_stiffness", m.rayleigh_stiffness, kNonNegative, "rayleigh_stiffness >= 0 [s]");
-  read_contact(t, m.restitution, m.friction);
+  read_contact(t, m.restitution, m.friction, m.rolling_resistance);
 }
 
 void read_pin(const Table& t, SceneObject& object) {
@@ -557,14 +562,14 @@ void read_camera(const Table& t, SceneCamera& c) {
 }
 
 void read_projectile(const Table& t, SceneProjectile& p) {
-  t.allow_only({"radius", "mass", "position", "velocity", "launch_time", "restitution", "friction"});
+  t.allow_only({"radius", "mass", "position", "velocity", "launch_time", "restitution", "friction", "rolling_resistance"});
   p.line = t.line();
   p.radius = t.require_number("radius", kPositive, "radius > 0 [m]", "radius = 0.05");
   p.mass = t.require_number("mass", kPositive, "mass > 0 [kg]", "mass = 1.0");
   if (!t.read_vec3("position", p.position, kMaxDistance, kPositionRange)) t.fail_missing("position", "position = [x, y, z]");
   if (!t.read_vec3("velocity", p.velocity, kMaxSpeed, kSpeedRange)) t.fail_missing("velocity", "velocity = [vx, vy, vz]");
   t.read_number("launch_time", p.launch_time, kNonNegative, "launch_time >= 0 [s]");
-  read_contact(t, p.restitution, p.friction);
+  read_contact(t, p.restitution, p.friction, p.rolling_resistance);
 }
 
 }  // namespace

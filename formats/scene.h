@@ -22,6 +22,13 @@
 
 namespace fissure::formats {
 
+/// Rolling resistance μ_r of every contact material unless a scene sets it: a contact
+/// resists its sides' relative spin with a couple of at most μ_r r times its normal force
+/// (r: the sphere's radius; player/sim/rolling_resistance.h says why it is needed).
+constexpr double kDefaultRollingResistance = 0.0;
+/// [m/s] fragments slower than this for SceneSolverSettings::sleep_time sleep.
+constexpr double kDefaultSleepSpeed = 0.0;
+
 /// Material of one object. Elastic constants feed the corotated linear model.
 struct SceneMaterial {
   double density = 1000;          ///< [kg/m³], > 0
@@ -34,6 +41,7 @@ struct SceneMaterial {
   double rayleigh_stiffness = 0;  ///< [s] stiffness-proportional damping β, ≥ 0
   double restitution = 0.2;       ///< [-] in [0, 1]
   double friction = 0.5;          ///< [-] Coulomb coefficient, ≥ 0
+  double rolling_resistance = kDefaultRollingResistance;  ///< [-] ≥ 0, see sim::ContactMaterial
 };
 
 /// Axis-aligned box in world coordinates (after the object's transform); the nodes of
@@ -68,6 +76,7 @@ struct SceneBox {
   Vec3 max = Vec3::Zero();  ///< [m], > min in every component
   double restitution = 0.2;
   double friction = 0.5;
+  double rolling_resistance = kDefaultRollingResistance;
 };
 
 /// Static sphere obstacle.
@@ -76,6 +85,7 @@ struct SceneSphere {
   double radius = 0;           ///< [m], > 0
   double restitution = 0.2;
   double friction = 0.5;
+  double rolling_resistance = kDefaultRollingResistance;
 };
 
 /// Infinite static plane n·x = offset; the solid side is n·x < offset.
@@ -85,6 +95,7 @@ struct SceneGround {
   double offset = 0;              ///< [m]
   double restitution = 0.2;
   double friction = 0.5;
+  double rolling_resistance = kDefaultRollingResistance;
 };
 
 /// Rigid sphere launched at the objects at launch_time.
@@ -96,6 +107,7 @@ struct SceneProjectile {
   double launch_time = 0;        ///< [s] simulation time of the launch, ≥ 0
   double restitution = 0.5;
   double friction = 0.3;
+  double rolling_resistance = kDefaultRollingResistance;
   int line = 0;                  ///< line of the [[projectile]] header
 };
 
@@ -139,6 +151,10 @@ struct SceneSolverSettings {
   /// contacts, but a 1000 m/s hit on a light bar then leaves spheres metres deep, so 8
   /// stays the default (BENCHMARKS.md, "Self-collision among hundreds of fragments").
   int contact_iterations = 8;
+  /// Islands of fragments slower than sleep_speed for sleep_time are held still until
+  /// something closes on them (sim::SleepSettings); sleep_speed 0 = never.
+  double sleep_speed = kDefaultSleepSpeed;  ///< [m/s] ≥ 0
+  double sleep_time = 0.25;                 ///< [s] > 0
   int threads = 0;               ///< 0 = all cores
   int max_splits_per_step = 64;  ///< fracture splits per step (per substep, see max_substep), ≥ 0 (0 = none)
 };

@@ -115,6 +115,8 @@ void write_summary(JsonWriter& json, const sim::World& world, const RunRecord& r
   json.key("exact_newton_iterations").value(static_cast<std::uint64_t>(s.exact_iterations));
   json.key("exact_substeps_rejected").value(static_cast<std::uint64_t>(s.exact_rejected));
   json.key("energy_halvings").value(static_cast<std::uint64_t>(s.energy_halvings));
+  json.key("fragments_asleep_final").value(static_cast<std::uint64_t>(s.fragments_asleep));
+  json.key("steps_retaken_to_wake").value(static_cast<std::uint64_t>(s.retaken_to_wake));
   if (run.diagnostics != nullptr) {
     json.key("sphere_penetration_max_m").value(run.diagnostics->sphere_penetration_max);
     json.key("sphere_penetration_final_m").value(run.diagnostics->sphere_penetration_final);
@@ -149,6 +151,9 @@ void print_summary(const sim::World& world, const RunRecord& run) {
   }
   std::printf("fracture   %zu splits, %zu faces exposed, %u fragments", s.splits, s.exposed, world.fragment_count());
   if (s.stand_in_spheres > 0) std::printf("; %zu spheres added to exposed tets that had none", s.stand_in_spheres);
+  if (world.settings().sleep.speed > 0.0) {
+    std::printf("; %zu asleep at the end, %zu steps taken again to wake one", s.fragments_asleep, s.retaken_to_wake);
+  }
   std::printf("\n");
   std::printf("contacts   %zu (%zu caught only by swept tests)", s.contacts, s.swept);
   if (run.diagnostics != nullptr) {

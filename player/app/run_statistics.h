@@ -35,6 +35,8 @@ class RunStatistics : public RunObserver {
   std::size_t energy_halvings = 0;
   /// Spheres given to tets that fracture exposed with no collision point (sim::StepReport).
   std::size_t stand_in_spheres = 0;
+  /// Fragments asleep after the last step, and steps taken again to wake an island (sim::StepReport).
+  std::size_t fragments_asleep = 0, retaken_to_wake = 0;
   std::vector<Index> initial_nodes;  ///< per body
 };
 

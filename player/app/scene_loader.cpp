@@ -12,7 +12,9 @@ namespace fissure::player {
 
 namespace {
 
-sim::ContactMaterial contact(double restitution, double friction) { return {restitution, friction}; }
+sim::ContactMaterial contact(double restitution, double friction, double rolling_resistance) {
+  return {restitution, friction, rolling_resistance};
+}
 
 /// Every render vertex once, bound to the first (triangle, tet) instance that has it.
 sim::ExactResolve exact_resolve(formats::SceneExact exact) {
@@ -104,7 +106,7 @@ sim::BodyDescription describe(const formats::Scene& scene, std::size_t index, co
   const formats::SceneMaterial& m = object.material;
   d.material = {m.density, m.youngs_modulus, m.poisson_ratio, m.rayleigh_mass, m.rayleigh_stiffness};
   d.toughness = m.toughness;
-  d.contact = contact(m.restitution, m.friction);
+  d.contact = contact(m.restitution, m.friction, m.rolling_resistance);
   if (bundle.collision) {
     const formats::Collision& c = *bundle.collision;
     d.spheres.tet = c.sphere_tet;
@@ -169,15 +171,15 @@ LoadedScene load_scene(const formats::Scene& scene) {
   sim::Environment environment;
   if (scene.ground.enabled) {
     environment.ground = sim::Plane{scene.ground.normal, scene.ground.offset,
-                                    contact(scene.ground.restitution, scene.ground.friction)};
+                                    contact(scene.ground.restitution, scene.ground.friction, scene.ground.rolling_resistance)};
   }
-  for (const auto& b : scene.boxes) environment.boxes.push_back({b.min, b.max, contact(b.restitution, b.friction)});
+  for (const auto& b : scene.boxes) environment.boxes.push_back({b.min, b.max, contact(b.restitution, b.friction, b.rolling_resistance)});
   for (const auto& s : scene.spheres) {
-    environment.balls.push_back({s.center, s.radius, contact(s.restitution, s.friction)});
+    environment.balls.push_back({s.center, s.radius, contact(s.restitution, s.friction, s.rolling_resistance)});
   }
   std::vector<sim::Projectile> projectiles;
   for (const auto& p : scene.projectiles) {
-    projectiles.push_back({p.position, p.velocity, p.radius, p.mass, p.launch_time, contact(p.restitution, p.friction)});
+    projectiles.push_back({p.position, p.velocity, p.radius, p.mass, p.launch_time, contact(p.restitution, p.friction, p.rolling_resistance)});
   }
   sim::WorldSettings settings;
   settings.step.dt = scene.solver.dt;
@@ -196,6 +198,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
   settings.exact_when_gaining = exact_resolve(scene.solver.exact_when_gaining);
   settings.energy_halvings = scene.solver.energy_halvings;
   settings.contact_iterations = scene.solver.contact_iterations;
+  settings.sleep = {scene.solver.sleep_speed, scene.solver.sleep_time};
   settings.min_dt = scene.solver.min_dt;
   settings.max_substep = scene.solver.max_substep;
   settings.fracture = scene.features.fracture;

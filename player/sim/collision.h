@@ -33,6 +33,7 @@
 #include "player/sim/broad_phase.h"
 #include "player/sim/environment.h"
 #include "player/sim/implicit_integrator.h"
+#include "player/sim/sleeping.h"
 #include "player/sim/split_overlaps.h"
 
 namespace fissure::sim {
@@ -111,6 +112,9 @@ class StepContacts {
   /// bodies have: to answer again, first restore the motion they had before.
   /// `iterations`: the augmented-Lagrangian iterations at most (0: the settings').
   ContactCounts respond(double restitution_share, int iterations = 0);
+  /// Every contact's sides, fragment by fragment, and how fast they closed before the
+  /// response (sleeping.h).
+  [[nodiscard]] std::vector<Touch> touches() const;
   /// Contacts whose restitution asks for more than the inelastic target.
   [[nodiscard]] std::size_t restituting() const { return m_counts.restituting; }
 
@@ -132,6 +136,14 @@ class StepContacts {
 ContactCounts resolve_collisions(std::span<CollisionBody> bodies, const Environment& environment,
                                  std::span<Projectile> projectiles, std::span<const Vec3> projectile_start,
                                  const CollisionSettings& settings);
+
+/// Rolling resistance (rolling_resistance.h) with the last step's contacts and their
+/// normal impulses (`impulses`), on the bodies' velocities after their solve: each
+/// contact between fragments, or of a fragment with an obstacle, takes at most μ_r r p
+/// out of its sides' relative spin (projectiles' contacts do not). Returns how many
+/// contacts resisted.
+std::size_t resist_rolling(std::span<CollisionBody> bodies, const Environment& environment,
+                           const ContactImpulses& impulses);
 
 /// Earliest s ∈ [0, 1] at which two points moving linearly (a0 → a1, b0 → b1) come
 /// within `distance`; 0 when they start within it, nullopt when they never do.

@@ -113,6 +113,30 @@ void ImplicitIntegrator::pin(std::span<const NodeIndex> nodes) {
   m_system_form = SystemForm::None;
 }
 
+void ImplicitIntegrator::hold(std::span<const NodeIndex> nodes) {
+  for (const NodeIndex node : nodes) {
+    FISSURE_ASSERT(node < node_count());
+    if (m_pinned[node] != 0) continue;
+    m_pinned[node] = kHeld;
+    m_velocities.col(node).setZero();
+    m_last_dv.col(node).setZero();
+    m_previous_dv.col(node).setZero();
+  }
+  m_smooth_solves = 0;
+  m_pattern_dirty = true;
+  m_system_form = SystemForm::None;
+}
+
+void ImplicitIntegrator::release(std::span<const NodeIndex> nodes) {
+  for (const NodeIndex node : nodes) {
+    FISSURE_ASSERT(node < node_count());
+    if (m_pinned[node] == kHeld) m_pinned[node] = 0;
+  }
+  m_smooth_solves = 0;
+  m_pattern_dirty = true;
+  m_system_form = SystemForm::None;
+}
+
 NodeIndex ImplicitIntegrator::split_node(NodeIndex node, std::span<const std::pair<TetIndex, int>> slots) {
   const NodeIndex added = node_count();
   const auto grow = [&](Matrix3Xd& m) {

@@ -95,12 +95,20 @@ class ImplicitIntegrator {
   [[nodiscard]] const CorotatedElasticity& elasticity() const { return m_elasticity; }
   [[nodiscard]] const Material& material() const { return m_material; }
   [[nodiscard]] bool pinned(NodeIndex node) const { return m_pinned[node] != 0; }
+  [[nodiscard]] std::span<const std::uint8_t> pinned_nodes() const { return m_pinned; }  ///< #N, nonzero: pinned
   /// 1 / mass, 0 for a pinned node (what contacts may move).
   [[nodiscard]] double inverse_mass(NodeIndex node) const { return m_pinned[node] ? 0.0 : 1.0 / m_mass[node]; }
 
   /// Fixes nodes where they are; the pattern is rebuilt once, on the next solve.
   void pin(std::span<const NodeIndex> nodes);
   void pin(NodeIndex node) { pin(std::span<const NodeIndex>(&node, 1)); }
+
+  /// Holds nodes still where they are, as if pinned, until released (a fragment asleep,
+  /// World): pinned nodes stay pinned. The pattern is rebuilt once, on the next solve.
+  void hold(std::span<const NodeIndex> nodes);
+  /// Frees held nodes, at rest; pinned ones stay pinned.
+  void release(std::span<const NodeIndex> nodes);
+  [[nodiscard]] bool held(NodeIndex node) const { return m_pinned[node] == kHeld; }
 
   /// Splits `node`: a new node with the same rest and current position and velocity
   /// takes the given (tet, corner) slots, which must currently hold `node`. Masses are
@@ -253,7 +261,8 @@ class ImplicitIntegrator {
   std::vector<double> m_solid_fraction;      ///< #T, to recompute the masses for a new density
   std::vector<Vec4> m_corner_weight;         ///< #T, each sums to 1
   Eigen::VectorXd m_mass;                    ///< #N lumped masses [kg]
-  std::vector<std::uint8_t> m_pinned;
+  std::vector<std::uint8_t> m_pinned;  ///< 0 free, 1 pinned, kHeld held (hold())
+  static constexpr std::uint8_t kHeld = 2;
   BlockSystem m_system;                      ///< A's pattern, assembly and product
   LaggedCholesky m_factor;                   ///< the direct solve's factor, or the lagged preconditioner
   bool m_pattern_dirty = true;               ///< a split or pin changed the connectivity

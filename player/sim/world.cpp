@@ -58,7 +58,10 @@ void check_points(const EmbeddedPoints& points, std::size_t tet_count, const std
 
 World::World(std::vector<BodyDescription> bodies, Environment environment, std::vector<Projectile> projectiles,
              WorldSettings settings)
-    : m_environment(std::move(environment)), m_projectiles(std::move(projectiles)), m_settings(settings) {
+    : m_environment(std::move(environment)),
+      m_projectiles(std::move(projectiles)),
+      m_settings(settings),
+      m_sleeping(settings.sleep) {
   check_time_step(settings.step.dt);
   check_max_substep(settings.step.dt, settings.max_substep);
   m_bodies.reserve(bodies.size());
@@ -137,14 +140,37 @@ StepReport World::step() {
       report.status.outcome = StepOutcome::Substepped;
     }
   }
+  if (report.status.ok() && m_sleeping.wakes_pending()) {
+    // Something closed on a sleeping island, which answered as an obstacle: take the
+    // step again with the island awake. Each retake wakes more, so this ends.
+    roll_back(report);
+    const std::vector<SleepBody> sleepers = sleep_bodies();
+    m_sleeping.wake(sleepers);
+    StepReport again = step();
+    again.retaken_to_wake += 1;
+    again.total += seconds_since(start) - again.total;
+    return again;
+  }
   if (!report.status.ok()) {
     roll_back(report);
   } else {
     keep_previous_positions(report);
     ++m_steps;
+    if (m_sleeping.enabled()) {
+      const std::vector<SleepBody> sleepers = sleep_bodies();
+      m_sleeping.after_step(sleepers, m_touches, m_settings.step.dt);
+      report.fragments_asleep = Sleeping::asleep(sleepers);
+    }
   }
   report.total = seconds_since(start);
   return report;
+}
+
+std::vector<SleepBody> World::sleep_bodies() {
+  std::vector<SleepBody> out;
+  out.reserve(m_bodies.size());
+  for (Body& b : m_bodies) out.push_back({&b.integrator(), &b.topology.tet_fragment(), b.topology.fragment_count()});
+  return out;
 }
 
 int World::planned_substeps() const {
@@ -418,7 +444,16 @@ void World::collide(double dt, StepReport& report) {
   cs.sparse_blocks_after = m_settings.contact_sparse_blocks_after;
   cs.sparse_blocks_from_start = m_sparse_block_substeps > 0;
   cs.impulses = &m_contact_impulses;
+  // With the last substep's impulses, before the contacts are found (collision.h).
+  resist_rolling(collision_bodies, m_environment, m_contact_impulses);
   StepContacts contacts(collision_bodies, m_environment, m_projectiles, m_projectile_start, cs);
+  if (m_sleeping.enabled()) {
+    m_touches = contacts.touches();
+    // Faster than a resting contact closes (contact_targets' resting speed), or than a
+    // fragment at rest moves.
+    const double wake_speed = std::max(2.0 * m_settings.step.gravity.norm() * dt, m_settings.sleep.speed);
+    m_sleeping.note_wakes(sleep_bodies(), m_touches, wake_speed);
+  }
   const bool restitutes = m_settings.restitution_within_budget && contacts.restituting() > 0;
   if (restitutes) save_motion(m_free_motion);
   // In a pile, substep after substep ends above its budget even inelastically (the

@@ -90,6 +90,9 @@ struct WorldSettings {
   /// never came within 0.6 J of its bound. 6 keeps both stability grids within the bound
   /// in every case (BENCHMARKS.md, issue 16).
   int energy_halvings = 6;
+  /// Islands of fragments at rest are held still until something closes on them
+  /// (sleeping.h); speed 0: never.
+  SleepSettings sleep;
 };
 
 /// How a step ended. A step never throws for a numerical outcome: it says what
@@ -150,6 +153,8 @@ struct StepReport {
   int energy_halvings = 0;   ///< substeps taken again as two halves because they gained energy
   int exact_substeps_rejected = 0;  ///< of those, the ones whose contacts then gained more: the linear answer kept
   int stand_in_spheres = 0;  ///< spheres given to tets that fracture exposed with none (stand_in_spheres.h)
+  std::size_t fragments_asleep = 0;  ///< held still after the step (sleeping.h)
+  int retaken_to_wake = 0;  ///< times the step was taken again because it closed on a sleeping island
 };
 
 /// What a renderer, recorder or viewer may read of one body between steps (DESIGN.md,
@@ -289,6 +294,8 @@ class World {
   StepStatus solve_bodies(const StepSettings& step, StepReport& report);
   void launch_and_move_projectiles(double dt);
   void collide(double dt, StepReport& report);
+  /// What sleeping sees of the bodies.
+  [[nodiscard]] std::vector<SleepBody> sleep_bodies();
   /// What the contact phase may leave: the energy at the substep's start plus what was
   /// put in since [J], and how much of that is rounding.
   [[nodiscard]] std::pair<double, double> substep_energy_budget() const;
@@ -370,6 +377,8 @@ class World {
   /// next answers inelastically first (collide()).
   bool m_restitution_futile = false;
   std::vector<Index> m_node_fragment;  ///< scratch for rotate_fragments_on_arcs
+  Sleeping m_sleeping;
+  std::vector<Touch> m_touches;  ///< the last substep's contacts, for sleeping
   std::vector<Index> m_fragment_before;  ///< scratch for fracture_bodies: a body's tet fragments before its splits
   Checkpoint m_checkpoint;
   std::vector<ImplicitIntegrator::Checkpoint> m_substep_checkpoint;  ///< solve_bodies' scratch

@@ -55,6 +55,7 @@ normal = [0, 3, 4]
 offset = -0.25
 restitution = 0.1
 friction = 0.9
+rolling_resistance = 0.05
 
 [[environment.box]]
 min = [0, 0, 0]
@@ -90,6 +91,7 @@ rayleigh_mass = 0.1
 rayleigh_stiffness = 0.002
 restitution = 0.05
 friction = 1.5
+rolling_resistance = 0.3
 
 [[object.pin]]
 box = { min = [-1, -1, 0], max = [1, 1, 0.1] }
@@ -143,6 +145,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(scene.ground.offset, -0.25);
   EXPECT_EQ(scene.ground.restitution, 0.1);
   EXPECT_EQ(scene.ground.friction, 0.9);
+  EXPECT_EQ(scene.ground.rolling_resistance, 0.05);
 
   ASSERT_EQ(scene.boxes.size(), 2u);
   EXPECT_EQ(scene.boxes[0].min, Vec3(0, 0, 0));
@@ -152,6 +155,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(scene.boxes[1].min, Vec3(-1, -1, -1));
   EXPECT_EQ(scene.boxes[1].restitution, 0.2);
   EXPECT_EQ(scene.boxes[1].friction, 0.5);
+  EXPECT_EQ(scene.boxes[1].rolling_resistance, kDefaultRollingResistance);
 
   ASSERT_EQ(scene.spheres.size(), 1u);
   EXPECT_EQ(scene.spheres[0].center, Vec3(5, 6, 7));
@@ -177,16 +181,17 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(bunny.material.rayleigh_stiffness, 0.002);
   EXPECT_EQ(bunny.material.restitution, 0.05);
   EXPECT_EQ(bunny.material.friction, 1.5);
+  EXPECT_EQ(bunny.material.rolling_resistance, 0.3);
   ASSERT_EQ(bunny.pin_boxes.size(), 1u);
   EXPECT_EQ(bunny.pin_boxes[0].min, Vec3(-1, -1, 0));
   EXPECT_EQ(bunny.pin_boxes[0].max, Vec3(1, 1, 0.1));
   EXPECT_EQ(bunny.pin_nodes, (std::vector<Index>{3, 1, 4, 15}));
-  EXPECT_EQ(bunny.line, 48);
+  EXPECT_EQ(bunny.line, 49);
 
   const SceneObject& cube = scene.objects[1];
   EXPECT_EQ(cube.name, "cube");  // the bundle's stem when no name is given
   EXPECT_EQ(cube.bundle, std::filesystem::path("scenes/other/cube.h5"));
-  EXPECT_EQ(cube.line, 76);
+  EXPECT_EQ(cube.line, 78);
 
   ASSERT_EQ(scene.projectiles.size(), 1u);
   const SceneProjectile& p = scene.projectiles[0];
@@ -197,7 +202,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(p.launch_time, 1.5);
   EXPECT_EQ(p.restitution, 0.8);
   EXPECT_EQ(p.friction, 0.1);
-  EXPECT_EQ(p.line, 79);
+  EXPECT_EQ(p.line, 81);
 }
 
 TEST(SceneReader, DefaultsApply) {
