@@ -433,6 +433,10 @@ const ContactMaterial& obstacle_material(Index owner, const Environment& environ
 
 std::size_t resist_rolling(std::span<CollisionBody> bodies, const Environment& environment,
                            const ContactImpulses& impulses) {
+  // Pairs take √(μa μb): with no body resisting, no contact does (a scene pays nothing).
+  if (std::none_of(bodies.begin(), bodies.end(), [](const CollisionBody& b) { return b.material.rolling_resistance > 0.0; })) {
+    return 0;
+  }
   constexpr auto kEmbedded = static_cast<std::uint8_t>(ContactSide::Kind::Embedded);
   // Only a fragment that rests on one of its spheres can roll or spin on it; one held at
   // several is held against turning by their lever arms, and resisting its spin as well
