@@ -462,10 +462,11 @@ void World::collide(double dt, StepReport& report) {
   // a substep, the inelastic answer comes first and restitution is tried only if it
   // leaves room, with the usual outer iterations. (Session 29 gave it twice as many;
   // they bought a pile nothing but time: in 259 of 326 of a pile's responses the last 8
-  // each left up to ~20 contacts short by up to 3 cm/s. The light bar under 10^4 m/s^2 that
-  // sank twice as deep when every substep answered this way, session 28, is no pile.
-  // docs/decisions.md, issue 16, sessions 28, 29 and 31.) Outside a pile (no response ran
-  // long lately) the wasted answer is cheap, and the order stays: restitution first.
+  // each left up to ~20 contacts short by up to 3 cm/s. The light bar under 10^4 m/s^2
+  // that sank twice as deep when every substep answered this way, session 28, is no
+  // pile. docs/decisions.md, issue 16, sessions 28, 29 and 31.) Outside a pile (no
+  // response ran long lately) the wasted answer is cheap, and the order stays:
+  // restitution first.
   const bool in_pile = m_sparse_block_substeps > 0;
   const bool inelastic_first = m_settings.inelastic_first_in_piles && restitutes && m_restitution_futile && in_pile;
   const ContactCounts counts = contacts.respond(inelastic_first ? 0.0 : 1.0);
