@@ -232,8 +232,11 @@ class JointSystem {
     m_sparse.solve(r, z);
   }
 
-  /// The dense blocks of the current operator: the base (system and masses) plus each
-  /// row's terms between entries in one block.
+  /// The blocks of the current operator: the base (system and masses) plus each row's
+  /// terms between entries in one block. A large sparse block keeps the factor of the
+  /// first outer iteration that made it (SparseBlocks::kKeptFactorNodes): the contacts
+  /// turned on or off and the friction since then make it stale, which costs CG
+  /// iterations, fewer than its factorizations did.
   void update_blocks() {
     for_row_chunks(m_rows.size(), [&](std::size_t first, std::size_t last) {
       for (std::size_t k = first; k != last; ++k) {
@@ -244,7 +247,7 @@ class JointSystem {
     });
     m_blocks.set_outer_terms(m_row_terms);
     m_blocks.factor();
-    if (m_sparse_active) m_sparse.set_outer_terms(m_row_terms);
+    if (m_sparse_active) m_sparse.set_outer_terms(m_row_terms, /*keep_large=*/true);
   }
 
   /// Applies the correction: bodies move by it (the fragments it touched rigidly

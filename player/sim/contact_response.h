@@ -95,8 +95,9 @@ struct ContactResponseSettings {
   /// makes the rest of the response precondition each large fragment (over 64 free
   /// nodes) that a contact touches with a sparse block of its own, its contacts' terms
   /// included, in place of its body's own preconditioner, which cannot see them. The
-  /// blocks cost a sparse factorization per outer iteration, which pays only where the
-  /// solves without them are long: on the bunny at toughness 0.2, while a fragment of
+  /// blocks cost sparse factorizations (per outer iteration; per response for a block
+  /// over SparseBlocks::kKeptFactorNodes nodes), which pay only where the solves
+  /// without them are long: on the bunny at toughness 0.2, while a fragment of
   /// hundreds of nodes lay among a hundred small ones, the response took 746
   /// conjugate-gradient iterations per step without them and 263 with them; ordinary
   /// solves take 2-20 and never make them.

@@ -126,8 +126,12 @@ void SparseBlocks::set_outer_rows(std::span<const OuterRows> terms) {
   for (auto& g : m_groups) g->build_pattern();
 }
 
-void SparseBlocks::set_outer_terms(std::span<const Mat3> terms) {
-  for (auto& g : m_groups) g->set_values(terms);
+void SparseBlocks::set_outer_terms(std::span<const Mat3> terms, bool keep_large) {
+  for (auto& g : m_groups) {
+    const bool factored = g->factor.factorized() || g->inverse_diagonal.size() > 0;
+    if (keep_large && factored && g->rows.size() > kKeptFactorNodes) continue;
+    g->set_values(terms);
+  }
 }
 
 void SparseBlocks::solve(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {

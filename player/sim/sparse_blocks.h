@@ -44,8 +44,16 @@ class SparseBlocks {
   /// Each block is its base plus wₑ w_f terms[k] at (rows[e], rows[f]) for every such
   /// pair of term k, summed in term order; then factored. A block that is not positive
   /// definite (short of rounding it cannot be) is replaced by its diagonal. `terms`
-  /// matches the last set_outer_rows().
-  void set_outer_terms(std::span<const Mat3> terms);
+  /// matches the last set_outer_rows(). With `keep_large` set, a block over
+  /// kKeptFactorNodes nodes that is already factored keeps its factor (now stale).
+  void set_outer_terms(std::span<const Mat3> terms, bool keep_large = false);
+  /// Blocks larger than this may keep a stale factor (set_outer_terms): on the bunny's
+  /// piles a fragment of 600-1,300 nodes took 3-7 ms to factor, 45 % of the response
+  /// when repeated every outer iteration; kept, the pile's collision phase took 16-38 %
+  /// less time for 20-45 % more CG iterations (docs/decisions.md, issue 16, session 32).
+  /// On a 98-node slab the stale factor doubled the CG iterations, which cost more than
+  /// its cheap factorizations.
+  static constexpr std::size_t kKeptFactorNodes = 256;
   /// z = block⁻¹ r on the covered rows; the other rows of z are left as they are.
   void solve(const Eigen::VectorXd& r, Eigen::VectorXd& z) const;
 
