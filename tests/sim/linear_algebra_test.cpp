@@ -491,6 +491,70 @@ TEST(SparseBlocks, SolveEachGroupsBlockWithItsTermsExactlyAndLeaveOtherRowsAlone
   }
 }
 
+// A block over kKeptFactorNodes nodes, once factored, keeps that factor when asked
+// (the contact response's later outer iterations, contact_response.cpp): it solves with
+// the first values, the small block with the new ones, and without the ask both are new.
+TEST(SparseBlocks, ALargeBlockKeepsItsFirstFactorWhenAskedAndASmallOneNever) {
+  std::mt19937 rng(11);
+  constexpr auto kLarge = static_cast<Eigen::Index>(SparseBlocks::kKeptFactorNodes) + 1;
+  constexpr Eigen::Index kNodes = kLarge + 2;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * kNodes, 3 * kNodes);
+  for (Eigen::Index a = 0; a < kNodes; ++a) {
+    A.block<3, 3>(3 * a, 3 * a) = 8.0 * Mat3::Identity();
+    if (a + 1 < kNodes && a + 1 != kLarge) {  // a chain in each group, none between them
+      const Mat3 c = random_matrix(rng, 1.0);
+      A.block<3, 3>(3 * a, 3 * a + 3) = c;
+      A.block<3, 3>(3 * a + 3, 3 * a) = c.transpose();
+    }
+  }
+  std::vector<Eigen::Index> large, small{3 * kLarge, 3 * kLarge + 3};
+  for (Eigen::Index a = 0; a < kLarge; ++a) large.push_back(3 * a);
+  const std::vector<std::vector<Eigen::Index>> groups{large, small};
+  SparseBlocks blocks;
+  blocks.set_groups(groups, A.rows());
+  for (Eigen::Index a = 0; a < kNodes; ++a) {
+    for (Eigen::Index b = 0; b < kNodes; ++b) {
+      if (!A.block<3, 3>(3 * a, 3 * b).isZero()) blocks.add(3 * a, 3 * b, A.block<3, 3>(3 * a, 3 * b));
+    }
+  }
+  // One contact row in each group, between two of its nodes.
+  BlockJacobi::OuterRows in_large, in_small;
+  in_large.count = 2;
+  in_large.rows = {0, 3 * (kLarge - 1)};
+  in_large.weights = {1.0, -1.0};
+  in_small.count = 2;
+  in_small.rows = {small[0], small[1]};
+  in_small.weights = {0.5, -0.5};
+  const std::vector<BlockJacobi::OuterRows> terms{in_large, in_small};
+  blocks.set_outer_rows(terms);
+  const Vec3 n = Vec3(2.0, -1.0, 2.0) / 3.0;
+  const std::vector<Mat3> first{20.0 * n * n.transpose(), 20.0 * n * n.transpose()};
+  const std::vector<Mat3> second{Mat3::Zero(), Mat3::Zero()};  // the contacts turned off
+  const Eigen::VectorXd r = Eigen::VectorXd::LinSpaced(A.rows(), -2.0, 1.0);
+  // Whether `group` of z solves the block with `values`.
+  const auto solves_with = [&](const Eigen::VectorXd& z, const std::vector<Eigen::Index>& group,
+                               const std::vector<Mat3>& values) {
+    const auto [block, rhs] = group_block(group, A, terms, values, r);
+    const Eigen::VectorXd expected = block.llt().solve(rhs);
+    double error = 0.0;
+    for (std::size_t i = 0; i < group.size(); ++i) {
+      error = std::max(error, (z.segment<3>(group[i]) - expected.segment<3>(3 * static_cast<Eigen::Index>(i))).norm());
+    }
+    return error < 1e-12 * expected.norm();
+  };
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(A.rows());
+  blocks.set_outer_terms(first, /*keep_large=*/true);
+  blocks.set_outer_terms(second, /*keep_large=*/true);
+  blocks.solve(r, z);
+  EXPECT_TRUE(solves_with(z, large, first));
+  EXPECT_FALSE(solves_with(z, large, second));  // the terms matter: the test can tell
+  EXPECT_TRUE(solves_with(z, small, second));
+  blocks.set_outer_terms(second);
+  blocks.solve(r, z);
+  EXPECT_TRUE(solves_with(z, large, second));
+  EXPECT_TRUE(solves_with(z, small, second));
+}
+
 TEST(SparseBlocks, ABlockThatIsNotPositiveDefiniteFallsBackToItsDiagonal) {
   SparseBlocks blocks;
   blocks.set_groups({{0, 3}}, 6);
