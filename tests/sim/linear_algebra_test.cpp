@@ -434,28 +434,38 @@ std::pair<Eigen::MatrixXd, Eigen::VectorXd> group_block(const std::vector<Eigen:
   return {block, rhs};
 }
 
-TEST(SparseBlocks, SolveEachGroupsBlockWithItsTermsExactlyAndLeaveOtherRowsAlone) {
-  std::mt19937 rng(7);
-  // A sparse operator: a chain of 12 nodes, each coupled to the next (its blocks
-  // diagonally dominant, so positive definite).
-  constexpr Eigen::Index kNodes = 12;
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * kNodes, 3 * kNodes);
-  for (Eigen::Index a = 0; a < kNodes; ++a) {
+/// A sparse operator: a chain of `nodes` nodes, each coupled to the next except across
+/// `cut` (no coupling between nodes cut − 1 and cut), its blocks diagonally dominant,
+/// so positive definite.
+Eigen::MatrixXd chain_operator(std::mt19937& rng, Eigen::Index nodes, Eigen::Index cut = -1) {
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * nodes, 3 * nodes);
+  for (Eigen::Index a = 0; a < nodes; ++a) {
     A.block<3, 3>(3 * a, 3 * a) = 8.0 * Mat3::Identity();
-    if (a + 1 < kNodes) {
+    if (a + 1 < nodes && a + 1 != cut) {
       const Mat3 c = random_matrix(rng, 1.0);
       A.block<3, 3>(3 * a, 3 * a + 3) = c;
       A.block<3, 3>(3 * a + 3, 3 * a) = c.transpose();
     }
   }
-  const std::vector<std::vector<Eigen::Index>> groups{{0, 3, 6, 9, 12}, {30, 21, 24, 27}};  // node 5, 11 in none
-  SparseBlocks blocks;
-  blocks.set_groups(groups, A.rows());
-  for (Eigen::Index a = 0; a < kNodes; ++a) {
-    for (Eigen::Index b = 0; b < kNodes; ++b) {
+  return A;
+}
+
+/// Each nonzero 3×3 block of A as a base term of `blocks`.
+void add_nonzero_blocks(const Eigen::MatrixXd& A, SparseBlocks& blocks) {
+  for (Eigen::Index a = 0; a < A.rows() / 3; ++a) {
+    for (Eigen::Index b = 0; b < A.rows() / 3; ++b) {
       if (!A.block<3, 3>(3 * a, 3 * b).isZero()) blocks.add(3 * a, 3 * b, A.block<3, 3>(3 * a, 3 * b));
     }
   }
+}
+
+TEST(SparseBlocks, SolveEachGroupsBlockWithItsTermsExactlyAndLeaveOtherRowsAlone) {
+  std::mt19937 rng(7);
+  const Eigen::MatrixXd A = chain_operator(rng, 12);
+  const std::vector<std::vector<Eigen::Index>> groups{{0, 3, 6, 9, 12}, {30, 21, 24, 27}};  // node 5, 11 in none
+  SparseBlocks blocks;
+  blocks.set_groups(groups, A.rows());
+  add_nonzero_blocks(A, blocks);
   // Two contact rows: one across both groups and a node in none, one inside the first
   // group between nodes A does not couple (a block outside A's pattern).
   BlockJacobi::OuterRows across, inside;
@@ -497,26 +507,13 @@ TEST(SparseBlocks, SolveEachGroupsBlockWithItsTermsExactlyAndLeaveOtherRowsAlone
 TEST(SparseBlocks, ALargeBlockKeepsItsFirstFactorWhenAskedAndASmallOneNever) {
   std::mt19937 rng(11);
   constexpr auto kLarge = static_cast<Eigen::Index>(SparseBlocks::kKeptFactorNodes) + 1;
-  constexpr Eigen::Index kNodes = kLarge + 2;
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * kNodes, 3 * kNodes);
-  for (Eigen::Index a = 0; a < kNodes; ++a) {
-    A.block<3, 3>(3 * a, 3 * a) = 8.0 * Mat3::Identity();
-    if (a + 1 < kNodes && a + 1 != kLarge) {  // a chain in each group, none between them
-      const Mat3 c = random_matrix(rng, 1.0);
-      A.block<3, 3>(3 * a, 3 * a + 3) = c;
-      A.block<3, 3>(3 * a + 3, 3 * a) = c.transpose();
-    }
-  }
+  const Eigen::MatrixXd A = chain_operator(rng, kLarge + 2, kLarge);  // a chain in each group
   std::vector<Eigen::Index> large, small{3 * kLarge, 3 * kLarge + 3};
   for (Eigen::Index a = 0; a < kLarge; ++a) large.push_back(3 * a);
   const std::vector<std::vector<Eigen::Index>> groups{large, small};
   SparseBlocks blocks;
   blocks.set_groups(groups, A.rows());
-  for (Eigen::Index a = 0; a < kNodes; ++a) {
-    for (Eigen::Index b = 0; b < kNodes; ++b) {
-      if (!A.block<3, 3>(3 * a, 3 * b).isZero()) blocks.add(3 * a, 3 * b, A.block<3, 3>(3 * a, 3 * b));
-    }
-  }
+  add_nonzero_blocks(A, blocks);
   // One contact row in each group, between two of its nodes.
   BlockJacobi::OuterRows in_large, in_small;
   in_large.count = 2;
