@@ -24,7 +24,7 @@ namespace fissure::formats {
 
 /// Rolling resistance μ_r of every contact material unless a scene sets it: a contact
 /// resists its sides' relative spin with a couple of at most μ_r r times its normal force
-/// (r: the sphere's radius; player/sim/rolling_resistance.h says why it is needed).
+/// (r: the sphere's radius; player/sim/contacts/rolling_resistance.h says why it is needed).
 constexpr double kDefaultRollingResistance = 0.0;
 /// [m/s] fragments slower than this for SceneSolverSettings::sleep_time sleep.
 constexpr double kDefaultSleepSpeed = 0.0;

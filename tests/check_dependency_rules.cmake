@@ -1,7 +1,9 @@
 # Fails if a file under formats/ or player/ includes CGAL or assimp, player/sim
-# includes GL headers, or player/sim and player/render include each other (DESIGN.md:
-# the player never links CGAL or assimp; sim never touches GL; the app hands render
-# spans of the physics' state).
+# includes GL headers, player/sim and player/render include each other, player/app
+# includes player/view (the viewer builds on the app; main.cpp above both joins them),
+# or the contact response includes contact detection (both share contacts/contact.h)
+# (docs/architecture.md: the player never links CGAL or assimp; sim never touches GL;
+# the app hands render spans of the physics' state).
 set(violations "")
 foreach(dir formats player)
   file(GLOB_RECURSE files "${SOURCE_DIR}/${dir}/*.h" "${SOURCE_DIR}/${dir}/*.cpp")
@@ -19,7 +21,7 @@ foreach(f ${sim_files})
     list(APPEND violations "${f}: ${hits}")
   endif()
 endforeach()
-foreach(pair "sim;render" "render;sim")
+foreach(pair "sim;render" "render;sim" "app;view")
   list(GET pair 0 from)
   list(GET pair 1 to)
   file(GLOB_RECURSE from_files "${SOURCE_DIR}/player/${from}/*.h" "${SOURCE_DIR}/player/${from}/*.cpp")
@@ -29,6 +31,14 @@ foreach(pair "sim;render" "render;sim")
       list(APPEND violations "${f}: ${hits}")
     endif()
   endforeach()
+endforeach()
+file(GLOB response_files "${SOURCE_DIR}/player/sim/contacts/contact_response.*"
+     "${SOURCE_DIR}/player/sim/contacts/joint_system.*")
+foreach(f ${response_files})
+  file(STRINGS "${f}" hits REGEX "#include[ \t]*\"player/sim/contacts/collision.h\"")
+  if(hits)
+    list(APPEND violations "${f}: ${hits}")
+  endif()
 endforeach()
 if(violations)
   message(FATAL_ERROR "dependency rule violated:\n${violations}")

@@ -11,10 +11,10 @@
 #include <utility>
 #include <vector>
 
-#include "player/sim/collision.h"
+#include "player/sim/contacts/collision.h"
 #include "player/sim/fracture.h"
 #include "player/sim/implicit_integrator.h"
-#include "player/sim/stand_in_spheres.h"
+#include "player/sim/contacts/stand_in_spheres.h"
 
 namespace fissure::sim {
 

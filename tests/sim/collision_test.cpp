@@ -1,4 +1,4 @@
-#include "player/sim/collision.h"
+#include "player/sim/contacts/collision.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "player/sim/contact_response.h"
+#include "player/sim/contacts/contact_response.h"
 
 #include <gtest/gtest.h>
 

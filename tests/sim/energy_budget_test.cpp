@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "player/sim/split_overlaps.h"
+#include "player/sim/contacts/split_overlaps.h"
 #include "player/sim/world.h"
 #include "tests/support/procedural.h"
 #include "tests/support/sim_fixtures.h"

@@ -2,7 +2,7 @@
 // of angular momentum out of its sides' relative spin, exactly; it never adds kinetic
 // energy, keeps each fragment's centre of mass and momentum, and between two fragments
 // keeps the total angular momentum.
-#include "player/sim/rolling_resistance.h"
+#include "player/sim/contacts/rolling_resistance.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Fragments asleep (sim/sleeping.h): a body at rest is held still, a hit wakes it in
 // the step of the hit (taken again), and sleeping never adds energy.
-#include "player/sim/sleeping.h"
+#include "player/sim/contacts/sleeping.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "player/sim/stand_in_spheres.h"
+#include "player/sim/contacts/stand_in_spheres.h"
 
 #include <gtest/gtest.h>
 

@@ -44,22 +44,10 @@
 
 #include <span>
 
-#include "player/sim/collision.h"
+#include "player/sim/contacts/contact.h"
 
 namespace fissure::sim {
 
-
-struct ContactConstraint {
-  ContactSide a, b;
-  Vec3 normal = Vec3::UnitZ();  ///< unit, from b towards a
-  double target = 0;            ///< the step must end with n · (v_a − v_b) ≥ target [m/s]
-  double friction = 0;          ///< Coulomb μ
-  double impulse = 0;           ///< in: a guess (the last step's); out: the normal impulse it carried [N s]
-  /// [m] where the two sides touch: a sphere's radius against an obstacle, the radii
-  /// summed between two spheres (less for a pair a split left overlapping); 0 for points.
-  /// Bounds what the contact may be left missing (ContactResponseSettings::reach_share).
-  double reach = 0;
-};
 
 struct ContactResponseSettings {
   double dt = 1.0 / 240.0;

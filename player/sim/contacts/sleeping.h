@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "player/sim/implicit_integrator.h"
-#include "player/sim/rolling_resistance.h"
+#include "player/sim/contacts/rolling_resistance.h"
 
 namespace fissure::sim {
 

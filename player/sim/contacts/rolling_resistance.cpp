@@ -1,4 +1,4 @@
-#include "player/sim/rolling_resistance.h"
+#include "player/sim/contacts/rolling_resistance.h"
 
 #include <Eigen/Cholesky>
 #include <cmath>

@@ -1,8 +1,8 @@
-#include "player/sim/split_overlaps.h"
+#include "player/sim/contacts/split_overlaps.h"
 
 #include <algorithm>
 
-#include "player/sim/broad_phase.h"
+#include "player/sim/contacts/broad_phase.h"
 
 namespace fissure::sim {
 

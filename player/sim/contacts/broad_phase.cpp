@@ -1,4 +1,4 @@
-#include "player/sim/broad_phase.h"
+#include "player/sim/contacts/broad_phase.h"
 
 #include <algorithm>
 #include <map>

@@ -1,4 +1,4 @@
-#include "player/sim/sleeping.h"
+#include "player/sim/contacts/sleeping.h"
 
 #include <algorithm>
 #include <cmath>

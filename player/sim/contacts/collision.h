@@ -30,46 +30,15 @@
 #include <span>
 #include <vector>
 
-#include "player/sim/broad_phase.h"
+#include "player/sim/contacts/broad_phase.h"
+#include "player/sim/contacts/contact.h"
+#include "player/sim/contacts/sleeping.h"
+#include "player/sim/contacts/split_overlaps.h"
 #include "player/sim/environment.h"
 #include "player/sim/implicit_integrator.h"
-#include "player/sim/sleeping.h"
-#include "player/sim/split_overlaps.h"
 
 namespace fissure::sim {
 
-/// What collisions see of one deformable body.
-struct CollisionBody {
-  ImplicitIntegrator* body = nullptr;
-  const EmbeddedPoints* points = nullptr;
-  const Matrix3Xd* start_positions = nullptr;  ///< node positions at the start of the step
-  const std::vector<Index>* tet_fragment = nullptr;  ///< fragment of each tet (self-collision)
-  ContactMaterial material;
-  /// Pairs of `points` a split left overlapping (split_overlaps.h): held, never pushed apart.
-  const SplitOverlaps* split_overlaps = nullptr;
-};
-
-/// One side of a contact: a point embedded in a body's tet, a projectile, or a static
-/// obstacle. (owner, point) names it from one step to the next (ContactKey).
-struct ContactSide {
-  enum class Kind : std::uint8_t { Static, Embedded, Projectile } kind = Kind::Static;
-  Index owner = 0;             ///< body or projectile index; Static: which obstacle (ContactKey)
-  Index point = 0;             ///< Embedded: the point's index in its body's collision points
-  TetIndex tet = 0;            ///< Embedded: the tet holding the point
-  Vec4 weight = Vec4::Zero();  ///< Embedded: the point's barycentric coordinates
-};
-
-/// Which contact this is, from one step to the next: each side's kind (static,
-/// embedded, projectile), owner (body, projectile, or obstacle: 0 the ground, then the
-/// boxes, then the balls) and embedded point.
-struct ContactKey {
-  std::uint8_t kind_a = 0, kind_b = 0;
-  Index owner_a = 0, point_a = 0, owner_b = 0, point_b = 0;
-  auto operator<=>(const ContactKey&) const = default;
-};
-/// The normal impulses of the last step's contacts: resting contacts carry nearly the
-/// same impulse step after step, so they warm-start the response.
-using ContactImpulses = std::map<ContactKey, double>;
 
 struct CollisionSettings {
   double dt = 1.0 / 240.0;
@@ -93,8 +62,6 @@ struct ContactCounts {
   std::size_t restituting = 0;   ///< contacts whose target restitution raised (impacts above the resting speed)
   bool ran_long = false;         ///< the response's ContactResponseReport::ran_long
 };
-
-struct ContactConstraint;  // contact_response.h
 
 /// The contacts of one step, found once (detection and targets), then answered by the
 /// response with any share of their restitution: World::collide answers twice when the

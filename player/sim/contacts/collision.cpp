@@ -1,12 +1,12 @@
-#include "player/sim/collision.h"
+#include "player/sim/contacts/collision.h"
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <tuple>
 
-#include "player/sim/contact_response.h"
-#include "player/sim/rolling_resistance.h"
+#include "player/sim/contacts/contact_response.h"
+#include "player/sim/contacts/rolling_resistance.h"
 
 namespace fissure::sim {
 
