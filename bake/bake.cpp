@@ -134,6 +134,143 @@ void repair_surface(SurfaceMesh& mesh, const std::string& mesh_name, BakeStats& 
   }
 }
 
+/// Repairs the surface, reports its topology and builds the cage's face table.
+void prepare_topology(formats::Bundle& bundle, const std::string& mesh_name, const std::string& cage_name, BakeStats& s) {
+  const SurfaceMesh& mesh = bundle.render;
+  const TetMesh& cage = bundle.cage;
+  const auto start = Clock::now();
+  repair_surface(bundle.render, mesh_name, s);
+  bundle.embedding.surface_self_intersections = s.self_intersections;
+  const SurfaceTopology topology = analyze_topology(mesh);
+  s.boundary_edges = topology.boundary_edges;
+  s.boundary_loops = topology.boundary_loops;
+  s.nonmanifold_edges = topology.nonmanifold_edges;
+  if (!topology.closed()) {
+    log_warning(mesh_name + ": the surface is not closed (" + std::to_string(topology.boundary_edges) +
+                " boundary edges in " + std::to_string(topology.boundary_loops) + " loops, " +
+                std::to_string(topology.nonmanifold_edges) +
+                " non-manifold edges); inside/outside comes from generalized winding numbers");
+  }
+  require_inside_cage_bounds(mesh, cage, mesh_name, cage_name);
+  bundle.faces = build_cage_faces(cage, cage_name);
+  s.faces_s = seconds_since(start);
+  log_stage("topology", std::to_string(topology.edges) + " surface edges, " + std::to_string(bundle.faces.face_count()) +
+                            " cage faces",
+            s.faces_s);
+}
+
+/// Every triangle to every tet it touches, exactly (the instances).
+TriangleTetPairs assign_instances(formats::Bundle& bundle, const std::string& mesh_name, BakeStats& s) {
+  formats::Embedding& e = bundle.embedding;
+  const auto start = Clock::now();
+  TriangleTetPairs pairs = assign_triangles(bundle.render, bundle.cage, bundle.faces);
+  s.candidates = pairs.candidates;
+  s.degenerate_triangles = pairs.degenerate_triangles;
+  if (pairs.degenerate_triangles > 0) {
+    log_warning(mesh_name + ": skipped " + std::to_string(pairs.degenerate_triangles) +
+                " degenerate (zero-area) triangles; they draw nothing");
+  }
+  e.instance_triangle = pairs.triangle;
+  e.instance_tet = pairs.tet;
+  e.instance_barycentric = std::move(pairs.barycentric);
+  s.assign_s = seconds_since(start);
+  log_stage("assign", std::to_string(e.instance_count()) + " instances from " + std::to_string(pairs.candidates) +
+                          " box-overlap candidates",
+            s.assign_s);
+  return pairs;
+}
+
+/// Each cage node inside or outside the solid (winding numbers), and each tet's class.
+void classify_cage(formats::Bundle& bundle, const BakeOptions& options, BakeStats& s) {
+  const SurfaceMesh& mesh = bundle.render;
+  const TetMesh& cage = bundle.cage;
+  formats::Embedding& e = bundle.embedding;
+  const auto start = Clock::now();
+  const WindingNumberTree winding(mesh, options.winding_accuracy);
+  e.node_winding.resize(cage.node_count());
+  e.node_inside.resize(cage.node_count());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cage.node_count(), 16), [&](const auto& range) {
+    for (std::size_t n = range.begin(); n != range.end(); ++n) {
+      e.node_winding[n] = winding.winding_number(cage.rest_positions.col(static_cast<Eigen::Index>(n)));
+      e.node_inside[n] = e.node_winding[n] >= 0.5 ? 1 : 0;
+    }
+  });
+  // A tet the surface does not pass through is wholly inside or wholly outside;
+  // its centroid decides which (more robust than any one node on an open surface).
+  std::vector<std::uint8_t> crossed(cage.tet_count(), 0);
+  for (const TetIndex t : e.instance_tet) crossed[t] = 1;
+  e.tet_class.resize(cage.tet_count());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cage.tet_count(), 16), [&](const auto& range) {
+    for (std::size_t t = range.begin(); t != range.end(); ++t) {
+      if (crossed[t]) {
+        e.tet_class[t] = formats::TetClass::Crossing;
+        continue;
+      }
+      Vec3 centroid = Vec3::Zero();
+      for (int k = 0; k < 4; ++k) centroid += cage.rest_positions.col(cage.tets(k, static_cast<Eigen::Index>(t)));
+      e.tet_class[t] = winding.winding_number(centroid / 4.0) >= 0.5 ? formats::TetClass::Inside : formats::TetClass::Outside;
+    }
+  });
+  s.classify_s = seconds_since(start);
+  {
+    std::size_t inside_nodes = 0, by_class[3] = {0, 0, 0};
+    for (const auto flag : e.node_inside) inside_nodes += flag;
+    for (const auto cls : e.tet_class) ++by_class[static_cast<int>(cls)];
+    log_stage("classify",
+              std::to_string(inside_nodes) + " of " + std::to_string(cage.node_count()) + " nodes inside; tets: " +
+                  std::to_string(by_class[2]) + " crossing, " + std::to_string(by_class[1]) + " inside, " +
+                  std::to_string(by_class[0]) + " outside",
+              s.classify_s);
+  }
+}
+
+/// The exact segments where the surface crosses each cage face.
+void contour_stage(formats::Bundle& bundle, const TriangleTetPairs& pairs, BakeStats& s) {
+  formats::Embedding& e = bundle.embedding;
+  const auto start = Clock::now();
+  FaceContours contours = extract_contours(bundle.render, bundle.cage, bundle.faces, pairs);
+  s.coplanar_pairs = contours.coplanar_pairs;
+  e.contour_offsets = std::move(contours.offsets);
+  e.contour_points = std::move(contours.points);
+  e.contour_triangle = std::move(contours.triangle);
+  e.contour_feature = std::move(contours.features);
+  e.face_degenerate = std::move(contours.degenerate_faces);
+  s.contours_s = seconds_since(start);
+  log_stage("contours", std::to_string(e.segment_count()) + " segments on the cage faces", s.contours_s);
+}
+
+/// Stage 2: a wall tile for every face the surface crosses.
+void wall_stage(formats::Bundle& bundle, const FaceRegions& regions, const BakeOptions& options, BakeStats& s) {
+  const auto start = Clock::now();
+  bundle.walls = bake_walls(bundle, regions, options.wall);
+  s.walls_s = seconds_since(start);
+  log_stage("walls",
+            std::to_string(bundle.walls->tile_count()) + " tiles of " + std::to_string(options.wall.resolution) + "² texels",
+            s.walls_s);
+}
+
+/// Stage 2: collision spheres, mass fractions and centres of mass per tet.
+void collision_stage(formats::Bundle& bundle, const FaceRegions& regions, const BakeOptions& options, BakeStats& s) {
+  const auto start = Clock::now();
+  // Sphere centres only need the side of the surface they are on, and there are many
+  // of them: a coarser winding-number tree (β = 2, about 3× faster per query, error
+  // ≤ 0.03 on the sample bunny) is plenty away from the surface itself.
+  const WindingNumberTree sampling(bundle.render, 2.0);
+  bundle.collision = bake_collision(bundle, regions, sampling, options.spheres, &s.collision);
+  s.collision_s = seconds_since(start);
+  char radius[32];
+  std::snprintf(radius, sizeof radius, "%.4g", bundle.collision->target_radius);
+  log_stage("collision",
+            std::to_string(bundle.collision->sphere_tet.size()) + " spheres (target radius " + radius + ", " +
+                std::to_string(s.collision.culled) + " surrounded ones culled, " +
+                std::to_string(s.collision.tets_halved) + " tets halved)",
+            s.collision_s);
+  if (s.collision.tets_short > 0) {
+    log_warning(std::to_string(s.collision.tets_short) + " tets with solid inside have fewer than 3 spheres even at 1/" +
+                std::to_string(1 << options.spheres.max_halvings) + " of the radius");
+  }
+}
+
 }  // namespace
 
 std::string generator_string() { return std::string(kGeneratorName) + " " + FISSURE_VERSION; }
@@ -175,98 +312,15 @@ formats::Bundle embed(const SurfaceMesh& input_mesh, const TetMesh& cage, const 
   formats::Bundle bundle;
   bundle.render = input_mesh;
   bundle.cage = cage;
-  formats::Embedding& e = bundle.embedding;
-  const SurfaceMesh& mesh = bundle.render;
-
+  prepare_topology(bundle, mesh_name, cage_name, s);
+  const TriangleTetPairs pairs = assign_instances(bundle, mesh_name, s);
   auto start = Clock::now();
-  repair_surface(bundle.render, mesh_name, s);
-  e.surface_self_intersections = s.self_intersections;
-  const SurfaceTopology topology = analyze_topology(mesh);
-  s.boundary_edges = topology.boundary_edges;
-  s.boundary_loops = topology.boundary_loops;
-  s.nonmanifold_edges = topology.nonmanifold_edges;
-  if (!topology.closed()) {
-    log_warning(mesh_name + ": the surface is not closed (" + std::to_string(topology.boundary_edges) +
-                " boundary edges in " + std::to_string(topology.boundary_loops) + " loops, " +
-                std::to_string(topology.nonmanifold_edges) +
-                " non-manifold edges); inside/outside comes from generalized winding numbers");
-  }
-  require_inside_cage_bounds(mesh, cage, mesh_name, cage_name);
-  bundle.faces = build_cage_faces(cage, cage_name);
-  s.faces_s = seconds_since(start);
-  log_stage("topology", std::to_string(topology.edges) + " surface edges, " + std::to_string(bundle.faces.face_count()) +
-                            " cage faces",
-            s.faces_s);
-
-  start = Clock::now();
-  TriangleTetPairs pairs = assign_triangles(mesh, cage, bundle.faces);
-  s.candidates = pairs.candidates;
-  s.degenerate_triangles = pairs.degenerate_triangles;
-  if (pairs.degenerate_triangles > 0) {
-    log_warning(mesh_name + ": skipped " + std::to_string(pairs.degenerate_triangles) +
-                " degenerate (zero-area) triangles; they draw nothing");
-  }
-  e.instance_triangle = pairs.triangle;
-  e.instance_tet = pairs.tet;
-  e.instance_barycentric = std::move(pairs.barycentric);
-  s.assign_s = seconds_since(start);
-  log_stage("assign", std::to_string(e.instance_count()) + " instances from " + std::to_string(pairs.candidates) +
-                          " box-overlap candidates",
-            s.assign_s);
-
-  start = Clock::now();
-  require_coverage(mesh, cage, e, options.coverage_tolerance, mesh_name, cage_name);
+  require_coverage(bundle.render, cage, bundle.embedding, options.coverage_tolerance, mesh_name, cage_name);
   s.coverage_s = seconds_since(start);
   log_stage("coverage", "every triangle's area is inside the cage", s.coverage_s);
 
-  start = Clock::now();
-  const WindingNumberTree winding(mesh, options.winding_accuracy);
-  e.node_winding.resize(cage.node_count());
-  e.node_inside.resize(cage.node_count());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cage.node_count(), 16), [&](const auto& range) {
-    for (std::size_t n = range.begin(); n != range.end(); ++n) {
-      e.node_winding[n] = winding.winding_number(cage.rest_positions.col(static_cast<Eigen::Index>(n)));
-      e.node_inside[n] = e.node_winding[n] >= 0.5 ? 1 : 0;
-    }
-  });
-  // A tet the surface does not pass through is wholly inside or wholly outside;
-  // its centroid decides which (more robust than any one node on an open surface).
-  std::vector<std::uint8_t> crossed(cage.tet_count(), 0);
-  for (const TetIndex t : e.instance_tet) crossed[t] = 1;
-  e.tet_class.resize(cage.tet_count());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cage.tet_count(), 16), [&](const auto& range) {
-    for (std::size_t t = range.begin(); t != range.end(); ++t) {
-      if (crossed[t]) {
-        e.tet_class[t] = formats::TetClass::Crossing;
-        continue;
-      }
-      Vec3 centroid = Vec3::Zero();
-      for (int k = 0; k < 4; ++k) centroid += cage.rest_positions.col(cage.tets(k, static_cast<Eigen::Index>(t)));
-      e.tet_class[t] = winding.winding_number(centroid / 4.0) >= 0.5 ? formats::TetClass::Inside : formats::TetClass::Outside;
-    }
-  });
-  s.classify_s = seconds_since(start);
-  {
-    std::size_t inside_nodes = 0, by_class[3] = {0, 0, 0};
-    for (const auto flag : e.node_inside) inside_nodes += flag;
-    for (const auto cls : e.tet_class) ++by_class[static_cast<int>(cls)];
-    log_stage("classify",
-              std::to_string(inside_nodes) + " of " + std::to_string(cage.node_count()) + " nodes inside; tets: " +
-                  std::to_string(by_class[2]) + " crossing, " + std::to_string(by_class[1]) + " inside, " +
-                  std::to_string(by_class[0]) + " outside",
-              s.classify_s);
-  }
-
-  start = Clock::now();
-  FaceContours contours = extract_contours(mesh, cage, bundle.faces, pairs);
-  s.coplanar_pairs = contours.coplanar_pairs;
-  e.contour_offsets = std::move(contours.offsets);
-  e.contour_points = std::move(contours.points);
-  e.contour_triangle = std::move(contours.triangle);
-  e.contour_feature = std::move(contours.features);
-  e.face_degenerate = std::move(contours.degenerate_faces);
-  s.contours_s = seconds_since(start);
-  log_stage("contours", std::to_string(e.segment_count()) + " segments on the cage faces", s.contours_s);
+  classify_cage(bundle, options, s);
+  contour_stage(bundle, pairs, s);
 
   if (!options.walls && !options.collision) return bundle;
   start = Clock::now();
@@ -278,34 +332,8 @@ formats::Bundle embed(const SurfaceMesh& input_mesh, const TetMesh& cage, const 
                 " cage faces the contours and the node classes disagree (an open or self-intersecting surface); "
                 "their walls follow the contours");
   }
-  if (options.walls) {
-    start = Clock::now();
-    bundle.walls = bake_walls(bundle, regions, options.wall);
-    s.walls_s = seconds_since(start);
-    log_stage("walls",
-              std::to_string(bundle.walls->tile_count()) + " tiles of " + std::to_string(options.wall.resolution) + "² texels",
-              s.walls_s);
-  }
-  if (options.collision) {
-    start = Clock::now();
-    // Sphere centres only need the side of the surface they are on, and there are many
-    // of them: a coarser winding-number tree (β = 2, about 3× faster per query, error
-    // ≤ 0.03 on the sample bunny) is plenty away from the surface itself.
-    const WindingNumberTree sampling(mesh, 2.0);
-    bundle.collision = bake_collision(bundle, regions, sampling, options.spheres, &s.collision);
-    s.collision_s = seconds_since(start);
-    char radius[32];
-    std::snprintf(radius, sizeof radius, "%.4g", bundle.collision->target_radius);
-    log_stage("collision",
-              std::to_string(bundle.collision->sphere_tet.size()) + " spheres (target radius " + radius + ", " +
-                  std::to_string(s.collision.culled) + " surrounded ones culled, " +
-                  std::to_string(s.collision.tets_halved) + " tets halved)",
-              s.collision_s);
-    if (s.collision.tets_short > 0) {
-      log_warning(std::to_string(s.collision.tets_short) + " tets with solid inside have fewer than 3 spheres even at 1/" +
-                  std::to_string(1 << options.spheres.max_halvings) + " of the radius");
-    }
-  }
+  if (options.walls) wall_stage(bundle, regions, options, s);
+  if (options.collision) collision_stage(bundle, regions, options, s);
   return bundle;
 }
 

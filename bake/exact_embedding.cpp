@@ -213,7 +213,7 @@ namespace {
 /// value, which the rare degenerate configurations still use.
 struct SegmentResult {
   enum class Kind { None, Segment, NeedsExact } kind = Kind::None;
-  Eigen::Matrix<double, 3, 2> points;
+  Eigen::Matrix<double, 3, 2> points = Eigen::Matrix<double, 3, 2>::Zero();
   std::array<std::uint8_t, 2> features{kContourInterior, kContourInterior};
 };
 
@@ -264,6 +264,45 @@ bool coplanar_inside(const Point& a, const Point& b, const Point& c, const Point
                                   CGAL::coplanar_orientation(c, a, b, x)};
   if (feature) *feature = feature_from_edges(s[0] == CGAL::COLLINEAR, s[1] == CGAL::COLLINEAR, s[2] == CGAL::COLLINEAR);
   return s[0] != CGAL::NEGATIVE && s[1] != CGAL::NEGATIVE && s[2] != CGAL::NEGATIVE;
+}
+
+/// Merges candidate points within `scale` × 1e-12 of an earlier one (their features
+/// combined) in place; returns how many distinct points are left at the front.
+int merge_near_duplicates(Vec3* candidates, std::uint8_t* features, int count, double scale) {
+  int unique = 0;
+  for (int k = 0; k < count; ++k) {
+    int duplicate_of = -1;
+    for (int j = 0; j < unique && duplicate_of < 0; ++j) {
+      if ((candidates[j] - candidates[k]).norm() <= 1e-12 * scale) duplicate_of = j;
+    }
+    if (duplicate_of >= 0) {
+      features[duplicate_of] = merge_features(features[duplicate_of], features[k]);
+    } else {
+      features[unique] = features[k];
+      candidates[unique++] = candidates[k];
+    }
+  }
+  return unique;
+}
+
+/// The segment between the two candidates, oriented so that direction · (n_F × n_T) > 0
+/// puts the solid on the left (see the header); NeedsExact where that sign is unclear.
+SegmentResult oriented_segment(const Vec3* candidates, const std::uint8_t* features, const Vec3* f_pos,
+                               const Vec3* t_pos) {
+  SegmentResult result;
+  const Vec3 axis = (f_pos[1] - f_pos[0]).cross(f_pos[2] - f_pos[0]).cross((t_pos[1] - t_pos[0]).cross(t_pos[2] - t_pos[0]));
+  const Vec3 direction = candidates[1] - candidates[0];
+  const double along = direction.dot(axis);
+  if (!(std::abs(along) > 1e-9 * direction.norm() * axis.norm())) {
+    result.kind = SegmentResult::Kind::NeedsExact;
+    return result;
+  }
+  result.kind = SegmentResult::Kind::Segment;
+  result.points.col(0) = along > 0 ? candidates[0] : candidates[1];
+  result.points.col(1) = along > 0 ? candidates[1] : candidates[0];
+  result.features = along > 0 ? std::array<std::uint8_t, 2>{features[0], features[1]}
+                              : std::array<std::uint8_t, 2>{features[1], features[0]};
+  return result;
 }
 
 SegmentResult face_triangle_segment(const SurfaceMesh& mesh, TriangleIndex tri, const Matrix3Xd& nodes,
@@ -329,39 +368,14 @@ SegmentResult face_triangle_segment(const SurfaceMesh& mesh, TriangleIndex tri, 
   // A point found through two features (an edge of T meeting an edge of F) is a
   // degenerate case: merge near-duplicates, and leave anything odd to exact arithmetic.
   const double scale = (f_pos[1] - f_pos[0]).norm() + (f_pos[2] - f_pos[0]).norm();
-  int unique = 0;
-  for (int k = 0; k < count; ++k) {
-    int duplicate_of = -1;
-    for (int j = 0; j < unique && duplicate_of < 0; ++j) {
-      if ((candidates[j] - candidates[k]).norm() <= 1e-12 * scale) duplicate_of = j;
-    }
-    if (duplicate_of >= 0) {
-      features[duplicate_of] = merge_features(features[duplicate_of], features[k]);
-    } else {
-      features[unique] = features[k];
-      candidates[unique++] = candidates[k];
-    }
-  }
+  const int unique = merge_near_duplicates(candidates, features, count, scale);
   SegmentResult result;
   if (unique < 2) return result;  // touching at a point at most
   if (unique > 2) {
     result.kind = SegmentResult::Kind::NeedsExact;
     return result;
   }
-  // Orient: direction · (n_F × n_T) > 0 puts the solid on the left (see the header).
-  const Vec3 axis = (f_pos[1] - f_pos[0]).cross(f_pos[2] - f_pos[0]).cross((t_pos[1] - t_pos[0]).cross(t_pos[2] - t_pos[0]));
-  const Vec3 direction = candidates[1] - candidates[0];
-  const double along = direction.dot(axis);
-  if (!(std::abs(along) > 1e-9 * direction.norm() * axis.norm())) {
-    result.kind = SegmentResult::Kind::NeedsExact;
-    return result;
-  }
-  result.kind = SegmentResult::Kind::Segment;
-  result.points.col(0) = along > 0 ? candidates[0] : candidates[1];
-  result.points.col(1) = along > 0 ? candidates[1] : candidates[0];
-  result.features = along > 0 ? std::array<std::uint8_t, 2>{features[0], features[1]}
-                              : std::array<std::uint8_t, 2>{features[1], features[0]};
-  return result;
+  return oriented_segment(candidates, features, f_pos, t_pos);
 }
 
 /// Features of the end points of a segment found on the exact path (degenerate
@@ -405,16 +419,16 @@ bool exact_segment(const SurfaceMesh& mesh, TriangleIndex tri, const Matrix3Xd& 
   return true;
 }
 
-}  // namespace
-
-FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, const CageFaces& faces,
-                              const TriangleTetPairs& pairs) {
-  // A triangle can only cross face i of its tet if its vertices are not all strictly
-  // on one side of the face's plane: an exact orientation test per vertex filters the
-  // candidates before the (costlier) exact construction.
+/// The (face, triangle) pairs that may cross, sorted and unique. A triangle can only
+/// cross face i of its tet if its vertices are not all strictly on one side of the
+/// face's plane: an exact orientation test per vertex filters the candidates before the
+/// (costlier) exact construction. Marks faces a triangle lies in as degenerate.
+std::vector<std::pair<FaceIndex, TriangleIndex>> crossing_candidates(const SurfaceMesh& mesh, const TetMesh& cage,
+                                                                     const CageFaces& faces,
+                                                                     const TriangleTetPairs& pairs,
+                                                                     std::vector<std::uint8_t>& degenerate,
+                                                                     std::size_t& coplanar) {
   std::vector<std::pair<FaceIndex, TriangleIndex>> crossing;
-  std::size_t coplanar = 0;
-  std::vector<std::uint8_t> degenerate(faces.face_count(), 0);
   for (std::size_t i = 0; i < pairs.triangle.size(); ++i) {
     const TriangleIndex tri = pairs.triangle[i];
     const TetIndex tet = pairs.tet[i];
@@ -442,6 +456,17 @@ FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, cons
   }
   std::sort(crossing.begin(), crossing.end());
   crossing.erase(std::unique(crossing.begin(), crossing.end()), crossing.end());
+  return crossing;
+}
+
+}  // namespace
+
+FaceContours extract_contours(const SurfaceMesh& mesh, const TetMesh& cage, const CageFaces& faces,
+                              const TriangleTetPairs& pairs) {
+  std::size_t coplanar = 0;
+  std::vector<std::uint8_t> degenerate(faces.face_count(), 0);
+  const std::vector<std::pair<FaceIndex, TriangleIndex>> crossing =
+      crossing_candidates(mesh, cage, faces, pairs, degenerate, coplanar);
 
   std::vector<std::uint8_t> has_segment(crossing.size(), 0);
   std::vector<Eigen::Matrix<double, 3, 2>> segments(crossing.size());

@@ -227,6 +227,103 @@ double triangle_clearance(const SurfaceDistance& surface, const Vec3& a, const V
   }
 }
 
+namespace {
+
+/// A face's frame on its tile: u runs along e1, v along e2 from corner n0.
+struct TileFrame {
+  Vec3 n0, e1, e2;
+  [[nodiscard]] Vec3 at(double u, double v) const { return n0 + u * e1 + v * e2; }
+};
+
+TileFrame tile_frame(const formats::Bundle& b, FaceIndex f) {
+  const auto& nodes = b.cage.rest_positions;
+  const Vec3 n0 = nodes.col(b.faces.nodes(0, f));
+  return {n0, nodes.col(b.faces.nodes(1, f)) - n0, nodes.col(b.faces.nodes(2, f)) - n0};
+}
+
+/// Face f's signed-distance tile (res² texels, 128 and up inside): the distance to its
+/// exact contour, clamped at sdf_range_texels texels.
+void rasterise_sdf(const formats::Bundle& b, const FaceRegions& regions, FaceIndex f, std::size_t res,
+                   double sdf_range_texels, std::uint8_t* sdf) {
+  const auto& e = b.embedding;
+  const TileFrame frame = tile_frame(b, f);
+  const double texel = std::max(frame.e1.norm(), frame.e2.norm()) / static_cast<double>(res);
+  const double range = sdf_range_texels * texel;
+  const std::vector<std::uint8_t> classes = classify_texels(regions, f, frame.n0, frame.e1, frame.e2, res);
+  for (std::size_t j = 0; j < res; ++j) {
+    for (std::size_t i = 0; i < res; ++i) {
+      const double u = (static_cast<double>(i) + 0.5) / static_cast<double>(res);
+      const double v = (static_cast<double>(j) + 0.5) / static_cast<double>(res);
+      const Vec3 x = frame.at(u, v);
+      double d = range;
+      for (std::uint64_t s = e.contour_offsets[f]; s < e.contour_offsets[f + 1]; ++s) {
+        d = std::min(d, point_segment_distance(x, e.contour_points[s].col(0), e.contour_points[s].col(1)));
+      }
+      const double t = d / range;  // 0 on the contour, 1 at the range and beyond
+      sdf[j * res + i] = classes[j * res + i] ? static_cast<std::uint8_t>(128 + std::lround(127.0 * t))
+                                              : static_cast<std::uint8_t>(127 - std::lround(127.0 * t));
+    }
+  }
+  mirror_beyond_diagonal(sdf, res);
+}
+
+/// Face f's depth tile (dres² texels, metres below the outer surface, 0 outside the
+/// solid); returns its deepest texel.
+double rasterise_depth(const formats::Bundle& b, const FaceRegions& regions, FaceIndex f, const SurfaceDistance& surface,
+                       std::size_t dres, float* depth_m) {
+  const TileFrame frame = tile_frame(b, f);
+  const Vec3 normal = frame.e1.cross(frame.e2);
+  double deepest = 0.0;
+  bool have_hint = false;
+  Vec3 hint = Vec3::Zero();
+  for (std::size_t j = 0; j < dres; ++j) {
+    for (std::size_t i = 0; i < dres; ++i) {
+      const double u = (static_cast<double>(i) + 0.5) / static_cast<double>(dres);
+      const double v = (static_cast<double>(j) + 0.5) / static_cast<double>(dres);
+      if (static_cast<double>(i + j + 1) > static_cast<double>(dres)) continue;
+      const Vec2 on = onto_face(u, v);
+      const Vec3 x = frame.at(on.x(), on.y());
+      if (region_winding(regions, f, normal, x) == 0) continue;
+      // Neighbouring texels have nearby closest points: seed each search with the last.
+      const double depth = surface.distance(x, hint, have_hint);
+      have_hint = true;
+      depth_m[j * dres + i] = static_cast<float>(depth);
+      deepest = std::max(deepest, depth);
+    }
+  }
+  mirror_beyond_diagonal(depth_m, dres);
+  return deepest;
+}
+
+/// The faces that get a tile (the crossing ones), in face order; sets w's face classes
+/// and tile indices.
+std::vector<FaceIndex> assign_tiles(const FaceRegions& regions, formats::Walls& w) {
+  const std::size_t face_count = regions.face_class.size();
+  w.face_class.resize(face_count);
+  w.face_tile.assign(face_count, kInvalidIndex);
+  std::vector<FaceIndex> tiled;
+  for (FaceIndex f = 0; f < face_count; ++f) {
+    w.face_class[f] = regions.face_class[f];
+    if (regions.face_class[f] == FaceClass::Crossing) {  // degenerate faces get no tile
+      w.face_tile[f] = static_cast<Index>(tiled.size());
+      tiled.push_back(f);
+    }
+  }
+  return tiled;
+}
+
+void check_tile_budget(std::size_t tiles, std::size_t res, std::size_t dres, const WallOptions& options) {
+  const std::size_t bytes = tiles * (res * res + dres * dres);
+  if (bytes > options.memory_budget_bytes) {
+    throw Error("--wall-res " + std::to_string(res) + " needs " + std::to_string(bytes >> 20) + " MiB of tiles for " +
+                    std::to_string(tiles) + " crossing faces, over the budget of " +
+                    std::to_string(options.memory_budget_bytes >> 20) + " MiB",
+                "lower --wall-res, or raise --wall-memory-budget (MiB)");
+  }
+}
+
+}  // namespace
+
 formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, const WallOptions& options) {
   validate(options);
   formats::Walls w;
@@ -236,78 +333,19 @@ formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, 
   w.depth_resolution = std::max<std::uint32_t>(4, options.resolution / options.depth_divisor);
   w.detail_resolution = options.detail_resolution;
   w.detail_seed = options.detail_seed;
-  w.face_class.resize(face_count);
-  w.face_tile.assign(face_count, kInvalidIndex);
   w.face_inside_area = regions.inside_area;
-  std::vector<FaceIndex> tiled;
-  for (FaceIndex f = 0; f < face_count; ++f) {
-    w.face_class[f] = regions.face_class[f];
-    if (regions.face_class[f] == FaceClass::Crossing) {  // degenerate faces get no tile
-      w.face_tile[f] = static_cast<Index>(tiled.size());
-      tiled.push_back(f);
-    }
-  }
+  const std::vector<FaceIndex> tiled = assign_tiles(regions, w);
   const std::size_t res = options.resolution, dres = w.depth_resolution;
-  const std::size_t bytes = tiled.size() * (res * res + dres * dres);
-  if (bytes > options.memory_budget_bytes) {
-    throw Error("--wall-res " + std::to_string(res) + " needs " + std::to_string(bytes >> 20) + " MiB of tiles for " +
-                    std::to_string(tiled.size()) + " crossing faces, over the budget of " +
-                    std::to_string(options.memory_budget_bytes >> 20) + " MiB",
-                "lower --wall-res, or raise --wall-memory-budget (MiB)");
-  }
+  check_tile_budget(tiled.size(), res, dres, options);
   w.sdf.assign(tiled.size() * res * res, 0);
   w.depth.assign(tiled.size() * dres * dres, 0);
 
   const SurfaceDistance surface(b.render);
   std::vector<double> max_depth(tiled.size(), 0.0);
   std::vector<float> depth_m(tiled.size() * dres * dres, 0.0f);
-  const auto& nodes = b.cage.rest_positions;
-  const auto& e = b.embedding;
   tbb::parallel_for(std::size_t{0}, tiled.size(), [&](std::size_t tile) {
-    const FaceIndex f = tiled[tile];
-    const Vec3 n0 = nodes.col(b.faces.nodes(0, f));
-    const Vec3 e1 = nodes.col(b.faces.nodes(1, f)) - n0, e2 = nodes.col(b.faces.nodes(2, f)) - n0;
-    const Vec3 normal = e1.cross(e2);
-    auto at = [&](double u, double v) -> Vec3 { return n0 + u * e1 + v * e2; };
-    auto inside = [&](double u, double v) {
-      const Vec2 on = onto_face(u, v);
-      return region_winding(regions, f, normal, at(on.x(), on.y())) != 0;
-    };
-    const double texel = std::max(e1.norm(), e2.norm()) / static_cast<double>(res);
-    const double range = options.sdf_range_texels * texel;
-    std::uint8_t* sdf = &w.sdf[tile * res * res];
-    const std::vector<std::uint8_t> classes = classify_texels(regions, f, n0, e1, e2, res);
-    for (std::size_t j = 0; j < res; ++j) {
-      for (std::size_t i = 0; i < res; ++i) {
-        const double u = (static_cast<double>(i) + 0.5) / static_cast<double>(res);
-        const double v = (static_cast<double>(j) + 0.5) / static_cast<double>(res);
-        const Vec3 x = at(u, v);
-        double d = range;
-        for (std::uint64_t s = e.contour_offsets[f]; s < e.contour_offsets[f + 1]; ++s) {
-          d = std::min(d, point_segment_distance(x, e.contour_points[s].col(0), e.contour_points[s].col(1)));
-        }
-        const double t = d / range;  // 0 on the contour, 1 at the range and beyond
-        sdf[j * res + i] = classes[j * res + i] ? static_cast<std::uint8_t>(128 + std::lround(127.0 * t))
-                                                : static_cast<std::uint8_t>(127 - std::lround(127.0 * t));
-      }
-    }
-    mirror_beyond_diagonal(sdf, res);
-    bool have_hint = false;
-    Vec3 hint = Vec3::Zero();
-    for (std::size_t j = 0; j < dres; ++j) {
-      for (std::size_t i = 0; i < dres; ++i) {
-        const double u = (static_cast<double>(i) + 0.5) / static_cast<double>(dres);
-        const double v = (static_cast<double>(j) + 0.5) / static_cast<double>(dres);
-        if (static_cast<double>(i + j + 1) > static_cast<double>(dres) || !inside(u, v)) continue;
-        const Vec2 on = onto_face(u, v);
-        // Neighbouring texels have nearby closest points: seed each search with the last.
-        const double depth = surface.distance(at(on.x(), on.y()), hint, have_hint);
-        have_hint = true;
-        depth_m[tile * dres * dres + j * dres + i] = static_cast<float>(depth);
-        max_depth[tile] = std::max(max_depth[tile], depth);
-      }
-    }
-    mirror_beyond_diagonal(&depth_m[tile * dres * dres], dres);
+    rasterise_sdf(b, regions, tiled[tile], res, options.sdf_range_texels, &w.sdf[tile * res * res]);
+    max_depth[tile] = rasterise_depth(b, regions, tiled[tile], surface, dres, &depth_m[tile * dres * dres]);
   });
   double deepest = 0.0;
   for (const double d : max_depth) deepest = std::max(deepest, d);
@@ -315,6 +353,7 @@ formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, 
   for (std::size_t i = 0; i < depth_m.size(); ++i) {
     w.depth[i] = static_cast<std::uint8_t>(std::lround(255.0 * std::clamp(depth_m[i] / w.depth_scale, 0.0, 1.0)));
   }
+  const auto& nodes = b.cage.rest_positions;
   w.face_clearance.assign(face_count, 0.0);
   tbb::parallel_for(FaceIndex{0}, static_cast<FaceIndex>(face_count), [&](FaceIndex f) {
     if (w.face_class[f] != FaceClass::Inside) return;

@@ -243,6 +243,165 @@ BundleMetadata read_metadata(const Reader& reader, hid_t file) {
   return meta;
 }
 
+void read_render(const Reader& reader, Bundle& b) {
+  const h5::Handle g = reader.group("render");
+  b.render.positions = reader.read3(g.id(), "/render", "positions");
+  const auto vertices = static_cast<hsize_t>(b.render.positions.cols());
+  b.render.triangles = reader.read_indices<3>(g.id(), "/render", "triangles", vertices);
+  if (h5::has_link(g.id(), "normals")) b.render.normals = reader.read3(g.id(), "/render", "normals", vertices);
+  if (h5::has_link(g.id(), "uvs")) {
+    b.render.uvs.resize(2, static_cast<Eigen::Index>(reader.expect_shape(g.id(), "/render", "uvs", {2}, vertices)));
+    h5::read_dataset(g.id(), "uvs", ElementType::F64, b.render.uvs.data());
+  }
+}
+
+void read_cage(const Reader& reader, Bundle& b) {
+  const h5::Handle g = reader.group("cage");
+  b.cage.rest_positions = reader.read3(g.id(), "/cage", "rest_positions");
+  const auto nodes = static_cast<std::size_t>(b.cage.rest_positions.cols());
+  b.cage.tets = reader.read_indices<4>(g.id(), "/cage", "tets", nodes);
+  const auto tets = static_cast<hsize_t>(b.cage.tets.cols());
+  b.faces.nodes = reader.read_indices<3>(g.id(), "/cage", "faces", nodes);
+  const auto faces = static_cast<hsize_t>(b.faces.nodes.cols());
+  b.faces.tets = reader.read_indices<2>(g.id(), "/cage", "face_tets", tets, faces, true);
+  b.faces.tet_faces = reader.read_indices<4>(g.id(), "/cage", "tet_faces", faces, tets);
+}
+
+void read_embedding(const Reader& reader, Bundle& b) {
+  const std::string& name = reader.path();
+  const h5::Handle g = reader.group("embedding");
+  Embedding& e = b.embedding;
+  const std::string where = "/embedding";
+  e.instance_triangle = reader.read_vector<TriangleIndex>(g.id(), where, "instance_triangle", ElementType::U32);
+  const hsize_t instances = e.instance_triangle.size();
+  e.instance_tet = reader.read_vector<TetIndex>(g.id(), where, "instance_tet", ElementType::U32, instances);
+  reader.check_range(e.instance_triangle.data(), instances, 1, b.render.triangle_count(), where + "/instance_triangle", false);
+  reader.check_range(e.instance_tet.data(), instances, 1, b.cage.tet_count(), where + "/instance_tet", false);
+  reader.expect_shape(g.id(), where, "instance_barycentric", {3, 4}, instances);
+  e.instance_barycentric.resize(instances);
+  h5::read_dataset(g.id(), "instance_barycentric", ElementType::F64, e.instance_barycentric.data());
+
+  const auto nodes = static_cast<hsize_t>(b.cage.node_count());
+  e.node_winding = reader.read_vector<double>(g.id(), where, "node_winding", ElementType::F64, nodes);
+  e.node_inside = reader.read_vector<std::uint8_t>(g.id(), where, "node_inside", ElementType::U8, nodes);
+  const auto classes = reader.read_vector<std::uint8_t>(g.id(), where, "tet_class", ElementType::U8,
+                                                        static_cast<hsize_t>(b.cage.tet_count()));
+  for (std::size_t t = 0; t < classes.size(); ++t) {
+    if (classes[t] > 2) throw Error(name + ": " + where + "/tet_class row " + std::to_string(t) + " holds " +
+                                    std::to_string(classes[t]) + "; valid classes are 0, 1, 2");
+    e.tet_class.push_back(static_cast<TetClass>(classes[t]));
+  }
+
+  const auto faces = static_cast<hsize_t>(b.faces.face_count());
+  e.contour_offsets = reader.read_vector<std::uint64_t>(g.id(), where, "contour_offsets", ElementType::U64, faces + 1);
+  e.contour_triangle = reader.read_vector<TriangleIndex>(g.id(), where, "contour_triangle", ElementType::U32);
+  const hsize_t segments = e.contour_triangle.size();
+  reader.check_range(e.contour_triangle.data(), segments, 1, b.render.triangle_count(), where + "/contour_triangle", false);
+  for (std::size_t f = 0; f < faces; ++f) {
+    if (e.contour_offsets[f] > e.contour_offsets[f + 1]) {
+      throw Error(name + ": " + where + "/contour_offsets decreases at face " + std::to_string(f));
+    }
+  }
+  if (e.contour_offsets.front() != 0 || e.contour_offsets.back() != segments) {
+    throw Error(name + ": " + where + "/contour_offsets does not span the " + std::to_string(segments) + " segments");
+  }
+  reader.expect_shape(g.id(), where, "contour_points", {2, 3}, segments);
+  e.contour_points.resize(segments);
+  h5::read_dataset(g.id(), "contour_points", ElementType::F64, e.contour_points.data());
+  e.face_degenerate = reader.read_vector<std::uint8_t>(g.id(), where, "face_degenerate", ElementType::U8, faces);
+  e.surface_self_intersections = static_cast<std::uint64_t>(
+      std::max<std::int64_t>(0, h5::read_integer_attribute(g.id(), "surface_self_intersections").value_or(0)));
+  reader.expect_shape(g.id(), where, "contour_feature", {2}, segments);
+  e.contour_feature.resize(segments);
+  h5::read_dataset(g.id(), "contour_feature", ElementType::U8, e.contour_feature.data());
+  for (std::size_t s = 0; s < segments; ++s) {
+    for (const std::uint8_t f : e.contour_feature[s]) {
+      if (f > 5 && f != kContourInterior) {
+        throw Error(name + ": " + where + "/contour_feature row " + std::to_string(s) + " holds " + std::to_string(f) +
+                    "; valid values are 0–5 and 255");
+      }
+    }
+  }
+}
+
+Walls read_walls(const Reader& reader, const Bundle& b) {
+  const std::string& name = reader.path();
+  const h5::Handle g = reader.group("walls");
+  const std::string where = "/walls";
+  Walls w;
+  auto integer = [&](const char* key, std::int64_t lo, std::int64_t hi) {
+    const auto value = h5::read_integer_attribute(g.id(), key);
+    if (!value || *value < lo || *value > hi) {
+      throw Error(name + ": " + where + " lacks a valid '" + key + "' attribute (an integer in " + std::to_string(lo) +
+                  " … " + std::to_string(hi) + ")");
+    }
+    return *value;
+  };
+  auto real = [&](const char* key) {
+    const auto value = h5::read_double_attribute(g.id(), key);
+    if (!value || !(*value > 0) || !std::isfinite(*value)) {
+      throw Error(name + ": " + where + " lacks a valid '" + key + "' attribute (a positive number)");
+    }
+    return *value;
+  };
+  w.resolution = static_cast<std::uint32_t>(integer("resolution", 1, 4096));
+  w.sdf_range_texels = real("sdf_range_texels");
+  w.depth_resolution = static_cast<std::uint32_t>(integer("depth_resolution", 1, 4096));
+  w.depth_scale = real("depth_scale");
+  w.detail_resolution = static_cast<std::uint32_t>(integer("detail_resolution", 1, 8192));
+  // The seed is a uint64 stored in an int64 attribute bit for bit.
+  w.detail_seed = static_cast<std::uint64_t>(integer("detail_seed", std::numeric_limits<std::int64_t>::min(),
+                                                     std::numeric_limits<std::int64_t>::max()));
+  const auto faces = static_cast<hsize_t>(b.faces.face_count());
+  const auto face_classes = reader.read_vector<std::uint8_t>(g.id(), where, "face_class", ElementType::U8, faces);
+  for (std::size_t f = 0; f < face_classes.size(); ++f) {
+    if (face_classes[f] > 3) throw Error(name + ": " + where + "/face_class row " + std::to_string(f) + " holds " +
+                                         std::to_string(face_classes[f]) + "; valid classes are 0, 1, 2, 3");
+    w.face_class.push_back(static_cast<FaceClass>(face_classes[f]));
+  }
+  w.face_tile = reader.read_vector<Index>(g.id(), where, "face_tile", ElementType::U32, faces);
+  w.face_inside_area = reader.read_vector<double>(g.id(), where, "face_inside_area", ElementType::F64, faces);
+  if (b.metadata.schema_minor >= 1 || h5::has_link(g.id(), "face_clearance")) {  // schema 1.1
+    w.face_clearance = reader.read_vector<double>(g.id(), where, "face_clearance", ElementType::F64, faces);
+  }
+  const hsize_t tiles = reader.expect_shape(g.id(), where, "sdf", {w.resolution, w.resolution});
+  reader.check_range(w.face_tile.data(), w.face_tile.size(), 1, tiles, where + "/face_tile", true);
+  w.sdf.resize(tiles * w.resolution * w.resolution);
+  h5::read_dataset(g.id(), "sdf", ElementType::U8, w.sdf.data());
+  reader.expect_shape(g.id(), where, "depth", {w.depth_resolution, w.depth_resolution}, tiles);
+  w.depth.resize(tiles * w.depth_resolution * w.depth_resolution);
+  h5::read_dataset(g.id(), "depth", ElementType::U8, w.depth.data());
+  reader.expect_shape(g.id(), where, "detail_height", {w.detail_resolution}, w.detail_resolution);
+  w.detail_height.resize(static_cast<std::size_t>(w.detail_resolution) * w.detail_resolution);
+  h5::read_dataset(g.id(), "detail_height", ElementType::U8, w.detail_height.data());
+  reader.expect_shape(g.id(), where, "detail_normal", {w.detail_resolution, 3}, w.detail_resolution);
+  w.detail_normal.resize(w.detail_height.size() * 3);
+  h5::read_dataset(g.id(), "detail_normal", ElementType::U8, w.detail_normal.data());
+  return w;
+}
+
+Collision read_collision(const Reader& reader, const Bundle& b) {
+  const h5::Handle g = reader.group("collision");
+  const std::string where = "/collision";
+  Collision c;
+  c.target_radius = h5::read_double_attribute(g.id(), "target_radius").value_or(0.0);
+  c.sampled_tets = static_cast<std::uint64_t>(std::max<std::int64_t>(0, h5::read_integer_attribute(g.id(), "sampled_tets").value_or(0)));
+
+  c.sphere_tet = reader.read_vector<TetIndex>(g.id(), where, "sphere_tet", ElementType::U32);
+  const hsize_t spheres = c.sphere_tet.size();
+  reader.check_range(c.sphere_tet.data(), spheres, 1, b.cage.tet_count(), where + "/sphere_tet", false);
+  reader.expect_shape(g.id(), where, "sphere_barycentric", {4}, spheres);
+  c.sphere_barycentric.resize(spheres);
+  h5::read_dataset(g.id(), "sphere_barycentric", ElementType::F64, c.sphere_barycentric.data());
+  c.sphere_radius = reader.read_vector<double>(g.id(), where, "sphere_radius", ElementType::F64, spheres);
+  const auto tets = static_cast<hsize_t>(b.cage.tet_count());
+  c.mass_fraction = reader.read_vector<double>(g.id(), where, "mass_fraction", ElementType::F64, tets);
+  reader.expect_shape(g.id(), where, "center_of_mass", {4}, tets);
+  c.center_of_mass.resize(tets);
+  h5::read_dataset(g.id(), "center_of_mass", ElementType::F64, c.center_of_mass.data());
+  return c;
+}
+
 }  // namespace
 
 void write_bundle(const std::filesystem::path& path, const Bundle& bundle) {
@@ -272,159 +431,11 @@ Bundle read_bundle_unchecked_context(const std::filesystem::path& path) {
   const Reader reader(name, file.id());
   Bundle b;
   b.metadata = read_metadata(reader, file.id());
-
-  {
-    const h5::Handle g = reader.group("render");
-    b.render.positions = reader.read3(g.id(), "/render", "positions");
-    const auto vertices = static_cast<hsize_t>(b.render.positions.cols());
-    b.render.triangles = reader.read_indices<3>(g.id(), "/render", "triangles", vertices);
-    if (h5::has_link(g.id(), "normals")) b.render.normals = reader.read3(g.id(), "/render", "normals", vertices);
-    if (h5::has_link(g.id(), "uvs")) {
-      b.render.uvs.resize(2, static_cast<Eigen::Index>(reader.expect_shape(g.id(), "/render", "uvs", {2}, vertices)));
-      h5::read_dataset(g.id(), "uvs", ElementType::F64, b.render.uvs.data());
-    }
-  }
-  {
-    const h5::Handle g = reader.group("cage");
-    b.cage.rest_positions = reader.read3(g.id(), "/cage", "rest_positions");
-    const auto nodes = static_cast<std::size_t>(b.cage.rest_positions.cols());
-    b.cage.tets = reader.read_indices<4>(g.id(), "/cage", "tets", nodes);
-    const auto tets = static_cast<hsize_t>(b.cage.tets.cols());
-    b.faces.nodes = reader.read_indices<3>(g.id(), "/cage", "faces", nodes);
-    const auto faces = static_cast<hsize_t>(b.faces.nodes.cols());
-    b.faces.tets = reader.read_indices<2>(g.id(), "/cage", "face_tets", tets, faces, true);
-    b.faces.tet_faces = reader.read_indices<4>(g.id(), "/cage", "tet_faces", faces, tets);
-  }
-  {
-    const h5::Handle g = reader.group("embedding");
-    Embedding& e = b.embedding;
-    const std::string where = "/embedding";
-    e.instance_triangle = reader.read_vector<TriangleIndex>(g.id(), where, "instance_triangle", ElementType::U32);
-    const hsize_t instances = e.instance_triangle.size();
-    e.instance_tet = reader.read_vector<TetIndex>(g.id(), where, "instance_tet", ElementType::U32, instances);
-    reader.check_range(e.instance_triangle.data(), instances, 1, b.render.triangle_count(), where + "/instance_triangle", false);
-    reader.check_range(e.instance_tet.data(), instances, 1, b.cage.tet_count(), where + "/instance_tet", false);
-    reader.expect_shape(g.id(), where, "instance_barycentric", {3, 4}, instances);
-    e.instance_barycentric.resize(instances);
-    h5::read_dataset(g.id(), "instance_barycentric", ElementType::F64, e.instance_barycentric.data());
-
-    const auto nodes = static_cast<hsize_t>(b.cage.node_count());
-    e.node_winding = reader.read_vector<double>(g.id(), where, "node_winding", ElementType::F64, nodes);
-    e.node_inside = reader.read_vector<std::uint8_t>(g.id(), where, "node_inside", ElementType::U8, nodes);
-    const auto classes = reader.read_vector<std::uint8_t>(g.id(), where, "tet_class", ElementType::U8,
-                                                          static_cast<hsize_t>(b.cage.tet_count()));
-    for (std::size_t t = 0; t < classes.size(); ++t) {
-      if (classes[t] > 2) throw Error(name + ": " + where + "/tet_class row " + std::to_string(t) + " holds " +
-                                      std::to_string(classes[t]) + "; valid classes are 0, 1, 2");
-      e.tet_class.push_back(static_cast<TetClass>(classes[t]));
-    }
-
-    const auto faces = static_cast<hsize_t>(b.faces.face_count());
-    e.contour_offsets = reader.read_vector<std::uint64_t>(g.id(), where, "contour_offsets", ElementType::U64, faces + 1);
-    e.contour_triangle = reader.read_vector<TriangleIndex>(g.id(), where, "contour_triangle", ElementType::U32);
-    const hsize_t segments = e.contour_triangle.size();
-    reader.check_range(e.contour_triangle.data(), segments, 1, b.render.triangle_count(), where + "/contour_triangle", false);
-    for (std::size_t f = 0; f < faces; ++f) {
-      if (e.contour_offsets[f] > e.contour_offsets[f + 1]) {
-        throw Error(name + ": " + where + "/contour_offsets decreases at face " + std::to_string(f));
-      }
-    }
-    if (e.contour_offsets.front() != 0 || e.contour_offsets.back() != segments) {
-      throw Error(name + ": " + where + "/contour_offsets does not span the " + std::to_string(segments) + " segments");
-    }
-    reader.expect_shape(g.id(), where, "contour_points", {2, 3}, segments);
-    e.contour_points.resize(segments);
-    h5::read_dataset(g.id(), "contour_points", ElementType::F64, e.contour_points.data());
-    e.face_degenerate = reader.read_vector<std::uint8_t>(g.id(), where, "face_degenerate", ElementType::U8, faces);
-    e.surface_self_intersections = static_cast<std::uint64_t>(
-        std::max<std::int64_t>(0, h5::read_integer_attribute(g.id(), "surface_self_intersections").value_or(0)));
-    reader.expect_shape(g.id(), where, "contour_feature", {2}, segments);
-    e.contour_feature.resize(segments);
-    h5::read_dataset(g.id(), "contour_feature", ElementType::U8, e.contour_feature.data());
-    for (std::size_t s = 0; s < segments; ++s) {
-      for (const std::uint8_t f : e.contour_feature[s]) {
-        if (f > 5 && f != kContourInterior) {
-          throw Error(name + ": " + where + "/contour_feature row " + std::to_string(s) + " holds " + std::to_string(f) +
-                      "; valid values are 0–5 and 255");
-        }
-      }
-    }
-  }
-  if (h5::has_link(file.id(), "walls")) {
-    const h5::Handle g = reader.group("walls");
-    const std::string where = "/walls";
-    Walls w;
-    auto integer = [&](const char* key, std::int64_t lo, std::int64_t hi) {
-      const auto value = h5::read_integer_attribute(g.id(), key);
-      if (!value || *value < lo || *value > hi) {
-        throw Error(name + ": " + where + " lacks a valid '" + key + "' attribute (an integer in " + std::to_string(lo) +
-                    " … " + std::to_string(hi) + ")");
-      }
-      return *value;
-    };
-    auto real = [&](const char* key) {
-      const auto value = h5::read_double_attribute(g.id(), key);
-      if (!value || !(*value > 0) || !std::isfinite(*value)) {
-        throw Error(name + ": " + where + " lacks a valid '" + key + "' attribute (a positive number)");
-      }
-      return *value;
-    };
-    w.resolution = static_cast<std::uint32_t>(integer("resolution", 1, 4096));
-    w.sdf_range_texels = real("sdf_range_texels");
-    w.depth_resolution = static_cast<std::uint32_t>(integer("depth_resolution", 1, 4096));
-    w.depth_scale = real("depth_scale");
-    w.detail_resolution = static_cast<std::uint32_t>(integer("detail_resolution", 1, 8192));
-    // The seed is a uint64 stored in an int64 attribute bit for bit.
-    w.detail_seed = static_cast<std::uint64_t>(integer("detail_seed", std::numeric_limits<std::int64_t>::min(),
-                                                       std::numeric_limits<std::int64_t>::max()));
-    const auto faces = static_cast<hsize_t>(b.faces.face_count());
-    const auto face_classes = reader.read_vector<std::uint8_t>(g.id(), where, "face_class", ElementType::U8, faces);
-    for (std::size_t f = 0; f < face_classes.size(); ++f) {
-      if (face_classes[f] > 3) throw Error(name + ": " + where + "/face_class row " + std::to_string(f) + " holds " +
-                                           std::to_string(face_classes[f]) + "; valid classes are 0, 1, 2, 3");
-      w.face_class.push_back(static_cast<FaceClass>(face_classes[f]));
-    }
-    w.face_tile = reader.read_vector<Index>(g.id(), where, "face_tile", ElementType::U32, faces);
-    w.face_inside_area = reader.read_vector<double>(g.id(), where, "face_inside_area", ElementType::F64, faces);
-    if (b.metadata.schema_minor >= 1 || h5::has_link(g.id(), "face_clearance")) {  // schema 1.1
-      w.face_clearance = reader.read_vector<double>(g.id(), where, "face_clearance", ElementType::F64, faces);
-    }
-    const hsize_t tiles = reader.expect_shape(g.id(), where, "sdf", {w.resolution, w.resolution});
-    reader.check_range(w.face_tile.data(), w.face_tile.size(), 1, tiles, where + "/face_tile", true);
-    w.sdf.resize(tiles * w.resolution * w.resolution);
-    h5::read_dataset(g.id(), "sdf", ElementType::U8, w.sdf.data());
-    reader.expect_shape(g.id(), where, "depth", {w.depth_resolution, w.depth_resolution}, tiles);
-    w.depth.resize(tiles * w.depth_resolution * w.depth_resolution);
-    h5::read_dataset(g.id(), "depth", ElementType::U8, w.depth.data());
-    reader.expect_shape(g.id(), where, "detail_height", {w.detail_resolution}, w.detail_resolution);
-    w.detail_height.resize(static_cast<std::size_t>(w.detail_resolution) * w.detail_resolution);
-    h5::read_dataset(g.id(), "detail_height", ElementType::U8, w.detail_height.data());
-    reader.expect_shape(g.id(), where, "detail_normal", {w.detail_resolution, 3}, w.detail_resolution);
-    w.detail_normal.resize(w.detail_height.size() * 3);
-    h5::read_dataset(g.id(), "detail_normal", ElementType::U8, w.detail_normal.data());
-    b.walls = std::move(w);
-  }
-  if (h5::has_link(file.id(), "collision")) {
-    const h5::Handle g = reader.group("collision");
-    const std::string where = "/collision";
-    Collision c;
-    c.target_radius = h5::read_double_attribute(g.id(), "target_radius").value_or(0.0);
-    c.sampled_tets = static_cast<std::uint64_t>(std::max<std::int64_t>(0, h5::read_integer_attribute(g.id(), "sampled_tets").value_or(0)));
-
-    c.sphere_tet = reader.read_vector<TetIndex>(g.id(), where, "sphere_tet", ElementType::U32);
-    const hsize_t spheres = c.sphere_tet.size();
-    reader.check_range(c.sphere_tet.data(), spheres, 1, b.cage.tet_count(), where + "/sphere_tet", false);
-    reader.expect_shape(g.id(), where, "sphere_barycentric", {4}, spheres);
-    c.sphere_barycentric.resize(spheres);
-    h5::read_dataset(g.id(), "sphere_barycentric", ElementType::F64, c.sphere_barycentric.data());
-    c.sphere_radius = reader.read_vector<double>(g.id(), where, "sphere_radius", ElementType::F64, spheres);
-    const auto tets = static_cast<hsize_t>(b.cage.tet_count());
-    c.mass_fraction = reader.read_vector<double>(g.id(), where, "mass_fraction", ElementType::F64, tets);
-    reader.expect_shape(g.id(), where, "center_of_mass", {4}, tets);
-    c.center_of_mass.resize(tets);
-    h5::read_dataset(g.id(), "center_of_mass", ElementType::F64, c.center_of_mass.data());
-    b.collision = std::move(c);
-  }
+  read_render(reader, b);
+  read_cage(reader, b);
+  read_embedding(reader, b);
+  if (h5::has_link(file.id(), "walls")) b.walls = read_walls(reader, b);
+  if (h5::has_link(file.id(), "collision")) b.collision = read_collision(reader, b);
   return b;
 }
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <optional>
+#include <utility>
 
 #include "common/barycentric.h"
 
@@ -81,6 +83,34 @@ bool contours_closed(const Embedding& e, FaceIndex f) {
   return std::all_of(balance.begin(), balance.end(), [](const auto& entry) { return entry.second == 0; });
 }
 
+/// How far face f's tile's texel count is from the exact inside area, in texel rows
+/// along the region's boundary (contour and face edges): at most 1 for a good tile.
+double tile_area_error_rows(const Bundle& b, FaceIndex f, double area) {
+  const Walls& w = *b.walls;
+  const Embedding& e = b.embedding;
+  const Vec3 n0 = b.cage.rest_positions.col(b.faces.nodes(0, f));
+  const double e1 = (b.cage.rest_positions.col(b.faces.nodes(1, f)) - n0).norm();
+  const double e2 = (b.cage.rest_positions.col(b.faces.nodes(2, f)) - n0).norm();
+  const double e3 = (b.cage.rest_positions.col(b.faces.nodes(2, f)) - b.cage.rest_positions.col(b.faces.nodes(1, f))).norm();
+  double boundary = e1 + e2 + e3;
+  for (std::uint64_t s = e.contour_offsets[f]; s < e.contour_offsets[f + 1]; ++s) {
+    boundary += (e.contour_points[s].col(1) - e.contour_points[s].col(0)).norm();
+  }
+  const double texel = (e1 + e2) / w.resolution;
+  return std::abs(tile_inside_area(w, f, area) - w.face_inside_area[f]) / (boundary * texel);
+}
+
+/// A tile that more than one face uses, or one out of range; none when every face has its own.
+std::optional<Index> shared_tile(const Walls& w, FaceIndex faces) {
+  std::vector<std::uint8_t> used(w.tile_count(), 0);
+  for (FaceIndex f = 0; f < faces; ++f) {
+    const Index tile = w.face_tile[f];
+    if (tile == kInvalidIndex) continue;
+    if (tile >= used.size() || used[tile]++) return tile;
+  }
+  return std::nullopt;
+}
+
 VerifyCheck check_walls(const Bundle& b) {
   VerifyCheck check{"walls", true, ""};
   const Walls& w = *b.walls;
@@ -131,31 +161,17 @@ VerifyCheck check_walls(const Bundle& b) {
       continue;
     }
     if (e.surface_self_intersections > 0) continue;  // overlapping regions: see Embedding
-    // The tile's texel count must match the exact inside area to about one texel row
-    // along the region's boundary (contour and face edges).
-    const Vec3 n0 = b.cage.rest_positions.col(b.faces.nodes(0, f));
-    const double e1 = (b.cage.rest_positions.col(b.faces.nodes(1, f)) - n0).norm();
-    const double e2 = (b.cage.rest_positions.col(b.faces.nodes(2, f)) - n0).norm();
-    const double e3 = (b.cage.rest_positions.col(b.faces.nodes(2, f)) - b.cage.rest_positions.col(b.faces.nodes(1, f))).norm();
-    double boundary = e1 + e2 + e3;
-    for (std::uint64_t s = e.contour_offsets[f]; s < e.contour_offsets[f + 1]; ++s) {
-      boundary += (e.contour_points[s].col(1) - e.contour_points[s].col(0)).norm();
-    }
-    const double texel = (e1 + e2) / w.resolution;
-    const double error = std::abs(tile_inside_area(w, f, area) - inside);
-    worst_ratio = std::max(worst_ratio, error / (boundary * texel));
-    if (error > boundary * texel) {
+    const double rows = tile_area_error_rows(b, f, area);
+    worst_ratio = std::max(worst_ratio, rows);
+    if (rows > 1.0) {
       fail("face " + std::to_string(f) + ": its tile covers " + format_double(tile_inside_area(w, f, area)) +
            " but the exact inside area is " + format_double(inside) + " (more than a texel row off)");
     }
   }
   if (w.tile_count() != crossing && check.passed) fail(std::to_string(w.tile_count()) + " tiles for " + std::to_string(crossing) + " crossing faces");
-  {
-    std::vector<std::uint8_t> used(w.tile_count(), 0);
-    for (FaceIndex f = 0; f < b.faces.face_count() && check.passed; ++f) {
-      const Index tile = w.face_tile[f];
-      if (tile == kInvalidIndex) continue;
-      if (tile >= used.size() || used[tile]++) fail("tile " + std::to_string(tile) + " is used by more than one face");
+  if (check.passed) {
+    if (const std::optional<Index> shared = shared_tile(w, b.faces.face_count())) {
+      fail("tile " + std::to_string(*shared) + " is used by more than one face");
     }
   }
   if (check.passed) {
@@ -267,6 +283,128 @@ double enclosed_volume(const SurfaceMesh& mesh) {
   return volume;
 }
 
+namespace {
+
+/// Each instance's barycentric coordinates sum to 1 and rebuild its triangle's vertices.
+std::pair<VerifyCheck, VerifyCheck> check_barycentrics(const Bundle& b, const VerifyTolerances& tol, double diagonal) {
+  const Embedding& e = b.embedding;
+  VerifyCheck sums{"barycentric-sums", true, ""};
+  VerifyCheck rebuild{"barycentric-reconstruction", true, ""};
+  double worst_sum = 0.0, worst_rebuild = 0.0;
+  for (std::size_t i = 0; i < e.instance_count(); ++i) {
+    const auto nodes = tet_nodes(b.cage, e.instance_tet[i]);
+    for (int j = 0; j < 3; ++j) {
+      const Vec4 beta = e.instance_barycentric[i].col(j);
+      // Relative to the coordinates' size: a big triangle over small tets has large β.
+      const double sum_error = std::abs(beta.sum() - 1.0) / std::max(1.0, beta.cwiseAbs().sum());
+      const Vec3 vertex = b.render.positions.col(b.render.triangles(j, e.instance_triangle[i]));
+      const double rebuild_error = (nodes * beta - vertex).norm() / diagonal;
+      if (!(sum_error <= tol.barycentric_sum) && sums.passed) {
+        sums.passed = false;
+        sums.detail = "instance " + std::to_string(i) + " vertex " + std::to_string(j) + ": sum off by " +
+                      format_double(sum_error);
+      }
+      if (!(rebuild_error <= tol.reconstruction) && rebuild.passed) {
+        rebuild.passed = false;
+        rebuild.detail = "instance " + std::to_string(i) + " (triangle " + std::to_string(e.instance_triangle[i]) +
+                         ", tet " + std::to_string(e.instance_tet[i]) + ") vertex " + std::to_string(j) +
+                         ": off by " + format_double(rebuild_error) + " of the cage diagonal";
+      }
+      worst_sum = std::max(worst_sum, sum_error);
+      worst_rebuild = std::max(worst_rebuild, rebuild_error);
+    }
+  }
+  if (sums.passed) sums.detail = "max |Σβ−1| = " + format_double(worst_sum);
+  if (rebuild.passed) rebuild.detail = "max error = " + format_double(worst_rebuild) + " of the cage diagonal";
+  return {sums, rebuild};
+}
+
+/// The instances of each triangle cover exactly its area.
+VerifyCheck check_coverage(const Bundle& b, const VerifyTolerances& tol) {
+  const Embedding& e = b.embedding;
+  VerifyCheck coverage{"area-coverage", true, ""};
+  const std::vector<double> covered = covered_area(b.render, b.cage, e);
+  double worst = 0.0;
+  std::size_t failing = 0;
+  for (Index t = 0; t < b.render.triangle_count(); ++t) {
+    const double area = triangle_area(b.render, t);
+    if (is_degenerate(b.render, t)) continue;
+    const double error = std::abs(covered[t] - area) / area;
+    worst = std::max(worst, error);
+    if (!(error <= tol.coverage)) {
+      if (failing++ == 0) {
+        coverage.detail = "triangle " + std::to_string(t) + ": instances cover " + format_double(covered[t]) +
+                          " of its area " + format_double(area);
+      }
+    }
+  }
+  coverage.passed = failing == 0;
+  coverage.detail = coverage.passed ? "max relative error = " + format_double(worst)
+                                    : std::to_string(failing) + " triangles not exactly covered; first: " + coverage.detail;
+  return coverage;
+}
+
+/// Node inside flags agree with their winding numbers, tet classes with their instances.
+VerifyCheck check_classes(const Bundle& b) {
+  const Embedding& e = b.embedding;
+  VerifyCheck classes{"node-classes", true, ""};
+  for (std::size_t n = 0; n < e.node_inside.size() && classes.passed; ++n) {
+    if ((e.node_winding[n] >= 0.5) != (e.node_inside[n] != 0) || !std::isfinite(e.node_winding[n])) {
+      classes.passed = false;
+      classes.detail = "node " + std::to_string(n) + ": winding " + format_double(e.node_winding[n]) +
+                       " disagrees with its inside flag";
+    }
+  }
+  std::vector<bool> has_instance(b.cage.tet_count(), false);
+  for (const TetIndex t : e.instance_tet) has_instance[t] = true;
+  for (Index t = 0; t < b.cage.tet_count() && classes.passed; ++t) {
+    if (has_instance[t] != (e.tet_class[t] == TetClass::Crossing)) {
+      classes.passed = false;
+      classes.detail = "tet " + std::to_string(t) + " is classed " +
+                       std::to_string(static_cast<int>(e.tet_class[t])) + " but has " +
+                       (has_instance[t] ? "" : "no ") + "instances";
+    }
+  }
+  if (classes.passed) classes.detail = "node flags match winding numbers; tet classes match instances";
+  return classes;
+}
+
+/// Every contour segment lies on its cage face and on its triangle.
+VerifyCheck check_contours(const Bundle& b, const VerifyTolerances& tol, double diagonal) {
+  const Embedding& e = b.embedding;
+  VerifyCheck contours{"contours-on-faces", true, ""};
+  double worst = 0.0;
+  for (FaceIndex f = 0; f < b.faces.face_count() && contours.passed; ++f) {
+    const Vec3 a = b.cage.rest_positions.col(b.faces.nodes(0, f));
+    const Vec3 n = (b.cage.rest_positions.col(b.faces.nodes(1, f)) - a)
+                       .cross(b.cage.rest_positions.col(b.faces.nodes(2, f)) - a)
+                       .normalized();
+    for (std::uint64_t s = e.contour_offsets[f]; s < e.contour_offsets[f + 1]; ++s) {
+      const TriangleIndex tri = e.contour_triangle[s];
+      const Vec3 ta = b.render.positions.col(b.render.triangles(0, tri));
+      const Vec3 tn = (b.render.positions.col(b.render.triangles(1, tri)) - ta)
+                          .cross(b.render.positions.col(b.render.triangles(2, tri)) - ta)
+                          .normalized();
+      for (int k = 0; k < 2; ++k) {
+        const Vec3 p = e.contour_points[s].col(k);
+        const double off = std::max(std::abs(n.dot(p - a)), std::abs(tn.dot(p - ta))) / diagonal;
+        worst = std::max(worst, off);
+        if (!(off <= tol.contour)) {
+          contours.passed = false;
+          contours.detail = "segment " + std::to_string(s) + " of face " + std::to_string(f) + " lies " +
+                            format_double(off) + " of the diagonal off its face or triangle plane";
+        }
+      }
+    }
+  }
+  if (contours.passed) {
+    contours.detail = std::to_string(e.segment_count()) + " segments, max plane offset " + format_double(worst);
+  }
+  return contours;
+}
+
+}  // namespace
+
 std::vector<std::size_t> replication_histogram(std::size_t triangle_count, const Embedding& embedding) {
   std::vector<std::size_t> per_triangle(triangle_count, 0);
   for (const TriangleIndex t : embedding.instance_triangle) ++per_triangle[t];
@@ -277,122 +415,15 @@ std::vector<std::size_t> replication_histogram(std::size_t triangle_count, const
 
 VerifyReport verify_bundle(const Bundle& b, const VerifyTolerances& tol) {
   VerifyReport report;
-  const Embedding& e = b.embedding;
   const double diagonal = std::max(bounding_diagonal(b.cage.rest_positions), 1e-300);
-
   report.checks.push_back(check_tets_positive(b.cage));
   report.checks.push_back(check_face_table(b.cage, b.faces));
-
-  {
-    VerifyCheck sums{"barycentric-sums", true, ""};
-    VerifyCheck rebuild{"barycentric-reconstruction", true, ""};
-    double worst_sum = 0.0, worst_rebuild = 0.0;
-    for (std::size_t i = 0; i < e.instance_count(); ++i) {
-      const auto nodes = tet_nodes(b.cage, e.instance_tet[i]);
-      for (int j = 0; j < 3; ++j) {
-        const Vec4 beta = e.instance_barycentric[i].col(j);
-        // Relative to the coordinates' size: a big triangle over small tets has large β.
-        const double sum_error = std::abs(beta.sum() - 1.0) / std::max(1.0, beta.cwiseAbs().sum());
-        const Vec3 vertex = b.render.positions.col(b.render.triangles(j, e.instance_triangle[i]));
-        const double rebuild_error = (nodes * beta - vertex).norm() / diagonal;
-        if (!(sum_error <= tol.barycentric_sum) && sums.passed) {
-          sums.passed = false;
-          sums.detail = "instance " + std::to_string(i) + " vertex " + std::to_string(j) + ": sum off by " +
-                        format_double(sum_error);
-        }
-        if (!(rebuild_error <= tol.reconstruction) && rebuild.passed) {
-          rebuild.passed = false;
-          rebuild.detail = "instance " + std::to_string(i) + " (triangle " + std::to_string(e.instance_triangle[i]) +
-                           ", tet " + std::to_string(e.instance_tet[i]) + ") vertex " + std::to_string(j) +
-                           ": off by " + format_double(rebuild_error) + " of the cage diagonal";
-        }
-        worst_sum = std::max(worst_sum, sum_error);
-        worst_rebuild = std::max(worst_rebuild, rebuild_error);
-      }
-    }
-    if (sums.passed) sums.detail = "max |Σβ−1| = " + format_double(worst_sum);
-    if (rebuild.passed) rebuild.detail = "max error = " + format_double(worst_rebuild) + " of the cage diagonal";
-    report.checks.push_back(sums);
-    report.checks.push_back(rebuild);
-  }
-
-  {
-    VerifyCheck coverage{"area-coverage", true, ""};
-    const std::vector<double> covered = covered_area(b.render, b.cage, e);
-    double worst = 0.0;
-    std::size_t failing = 0;
-    for (Index t = 0; t < b.render.triangle_count(); ++t) {
-      const double area = triangle_area(b.render, t);
-      if (is_degenerate(b.render, t)) continue;
-      const double error = std::abs(covered[t] - area) / area;
-      worst = std::max(worst, error);
-      if (!(error <= tol.coverage)) {
-        if (failing++ == 0) {
-          coverage.detail = "triangle " + std::to_string(t) + ": instances cover " + format_double(covered[t]) +
-                            " of its area " + format_double(area);
-        }
-      }
-    }
-    coverage.passed = failing == 0;
-    coverage.detail = coverage.passed ? "max relative error = " + format_double(worst)
-                                      : std::to_string(failing) + " triangles not exactly covered; first: " + coverage.detail;
-    report.checks.push_back(coverage);
-  }
-
-  {
-    VerifyCheck classes{"node-classes", true, ""};
-    for (std::size_t n = 0; n < e.node_inside.size() && classes.passed; ++n) {
-      if ((e.node_winding[n] >= 0.5) != (e.node_inside[n] != 0) || !std::isfinite(e.node_winding[n])) {
-        classes.passed = false;
-        classes.detail = "node " + std::to_string(n) + ": winding " + format_double(e.node_winding[n]) +
-                         " disagrees with its inside flag";
-      }
-    }
-    std::vector<bool> has_instance(b.cage.tet_count(), false);
-    for (const TetIndex t : e.instance_tet) has_instance[t] = true;
-    for (Index t = 0; t < b.cage.tet_count() && classes.passed; ++t) {
-      if (has_instance[t] != (e.tet_class[t] == TetClass::Crossing)) {
-        classes.passed = false;
-        classes.detail = "tet " + std::to_string(t) + " is classed " +
-                         std::to_string(static_cast<int>(e.tet_class[t])) + " but has " +
-                         (has_instance[t] ? "" : "no ") + "instances";
-      }
-    }
-    if (classes.passed) classes.detail = "node flags match winding numbers; tet classes match instances";
-    report.checks.push_back(classes);
-  }
-
-  {
-    VerifyCheck contours{"contours-on-faces", true, ""};
-    double worst = 0.0;
-    for (FaceIndex f = 0; f < b.faces.face_count() && contours.passed; ++f) {
-      const Vec3 a = b.cage.rest_positions.col(b.faces.nodes(0, f));
-      const Vec3 n = (b.cage.rest_positions.col(b.faces.nodes(1, f)) - a)
-                         .cross(b.cage.rest_positions.col(b.faces.nodes(2, f)) - a)
-                         .normalized();
-      for (std::uint64_t s = e.contour_offsets[f]; s < e.contour_offsets[f + 1]; ++s) {
-        const TriangleIndex tri = e.contour_triangle[s];
-        const Vec3 ta = b.render.positions.col(b.render.triangles(0, tri));
-        const Vec3 tn = (b.render.positions.col(b.render.triangles(1, tri)) - ta)
-                            .cross(b.render.positions.col(b.render.triangles(2, tri)) - ta)
-                            .normalized();
-        for (int k = 0; k < 2; ++k) {
-          const Vec3 p = e.contour_points[s].col(k);
-          const double off = std::max(std::abs(n.dot(p - a)), std::abs(tn.dot(p - ta))) / diagonal;
-          worst = std::max(worst, off);
-          if (!(off <= tol.contour)) {
-            contours.passed = false;
-            contours.detail = "segment " + std::to_string(s) + " of face " + std::to_string(f) + " lies " +
-                              format_double(off) + " of the diagonal off its face or triangle plane";
-          }
-        }
-      }
-    }
-    if (contours.passed) {
-      contours.detail = std::to_string(e.segment_count()) + " segments, max plane offset " + format_double(worst);
-    }
-    report.checks.push_back(contours);
-  }
+  const auto [sums, rebuild] = check_barycentrics(b, tol, diagonal);
+  report.checks.push_back(sums);
+  report.checks.push_back(rebuild);
+  report.checks.push_back(check_coverage(b, tol));
+  report.checks.push_back(check_classes(b));
+  report.checks.push_back(check_contours(b, tol, diagonal));
   if (b.walls) {
     report.checks.push_back(check_walls(b));
   }
