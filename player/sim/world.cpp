@@ -258,12 +258,13 @@ void World::rotate_fragments_on_arcs(const std::vector<Matrix3Xd>& from) {
 ///    convergence from that answer on arcs (so Newton starts close), its contacts
 ///    answered again, and only their correction turned on arcs afterwards: a converged
 ///    step already turns each part through atan(hω), and the arcs' linearised fit of the
-///    whole displacement would shrink it by cos of that (docs/decisions.md).
+///    whole displacement would shrink it by cos of that (docs/decisions/0031-fragments-turn-on-arcs.md).
 ///  - The contact response (ExactResolve::SolveAndContacts only): its correction moved
 ///    on lines (a bunny crushed under 1e4 m/s² gained 14 kJ in one substep so). Solved
 ///    again exactly with the response's impulses held. Not the default: a 1 mm steel
 ///    sliver with ν = 0.499 lying on the ground then runs away (×1e8) in every seed, from
-///    the step after one such re-solve on; why is open (docs/decisions.md, session 19).
+///    the step after one such re-solve on; why is open
+///    (docs/decisions/0032-exact-resolve-where-a-substep-gains.md).
 double World::solve_exactly_if_gaining(const StepSettings& step, StepReport& report) {
   const double linear = total_energy();
   if (linear <= substep_energy_limit()) return linear;
@@ -464,7 +465,7 @@ void World::collide(double dt, StepReport& report) {
   // they bought a pile nothing but time: in 259 of 326 of a pile's responses the last 8
   // each left up to ~20 contacts short by up to 3 cm/s. The light bar under 10^4 m/s^2
   // that sank twice as deep when every substep answered this way, session 28, is no
-  // pile. docs/decisions.md, issue 16, sessions 28, 29 and 31.) Outside a pile (no
+  // pile. docs/decisions/0026-inelastic-first-in-piles.md.) Outside a pile (no
   // response ran long lately) the wasted answer is cheap, and the order stays:
   // restitution first.
   const bool in_pile = m_sparse_block_substeps > 0;
