@@ -6,7 +6,7 @@
 # step count) with the block under README.md's "sample-output" marker. Wall times, the
 # per-phase timings and the checks' cost are left out. The figures hold on any x86-64
 # machine with OpenBLAS held to its Prescott kernels (docs/reproducibility.md), which
-# this script sets. Exit 0 when they match; 1 with a diff when they do not.
+# this script sets even where OPENBLAS_CORETYPE says otherwise. Exit 0 when they match; 1 with a diff when they do not.
 #   usage: scripts/check-readme-figures.sh [PLAYER]   (default: the release build's)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,7 +18,8 @@ if [[ -z $player ]]; then
 fi
 [[ -n $player && -x $player ]] || { echo "error: no fissure-player found under build/release/player" >&2; echo "hint: bash scripts/build.sh release, or pass the player's path" >&2; exit 1; }
 [[ -f out/bunny-5k.h5 ]] || { echo "error: out/bunny-5k.h5 is missing" >&2; echo "hint: run scripts/bake-sample.sh first" >&2; exit 1; }
-export OPENBLAS_CORETYPE=${OPENBLAS_CORETYPE:-Prescott}
+# Always Prescott, whatever the environment says: the README's figures are those kernels'.
+export OPENBLAS_CORETYPE=Prescott
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 # The machine-independent lines: the first without its wall time; no phase rows, no checks.
