@@ -1,7 +1,7 @@
 # Fails if a file under formats/ or player/ includes CGAL or assimp, player/sim
-# includes GL headers, or player/sim and player/render include each other (docs/architecture.md, "Modules and their imports":
-# the player never links CGAL or assimp; sim never touches GL; the app hands render
-# spans of the physics' state).
+# includes GL headers, or player/sim and player/render include each other
+# (docs/architecture.md, "Modules and their imports": the player never links CGAL or
+# assimp; sim never touches GL; the app hands render spans of the physics' state).
 set(violations "")
 foreach(dir formats player)
   file(GLOB_RECURSE files "${SOURCE_DIR}/${dir}/*.h" "${SOURCE_DIR}/${dir}/*.cpp")
