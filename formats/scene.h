@@ -123,7 +123,7 @@ struct SceneSolverSettings {
   double min_dt = 0;      ///< [s] 0 = fixed dt; else adaptive between min_dt and dt
   /// [s] a longer dt is taken in equal substeps no longer than this; 0 = never. 1/60 s:
   /// the sample bunny hit by its ball keeps the energy bound at dt = 1/60 s and gains
-  /// ×1.3e13 at 1/30 s (BENCHMARKS.md, issue 16).
+  /// ×1.3e13 at 1/30 s (docs/decisions/0030-energy-check-per-run.md).
   double max_substep = 1.0 / 60.0;
   SceneSolver solver = SceneSolver::ConjugateGradient;
   /// [-] relative residual of the linear solve, in (0, 1). 1e-4: at dt = 1/240 the
@@ -143,13 +143,13 @@ struct SceneSolverSettings {
   /// A substep that still ends with more energy than it had after the repairs above is
   /// taken again as two halves, at most this many times in a row
   /// (sim::WorldSettings::energy_halvings); 0 = never. 6: the stability grids keep the
-  /// energy bound in every case (BENCHMARKS.md, issue 16).
+  /// energy bound in every case (docs/decisions/0033-halving-substeps-that-gain.md).
   int energy_halvings = 6;
   /// The contact response's outer iterations at most per answer, 1 … 64
   /// (sim::WorldSettings::contact_iterations). A pile of hundreds of fragments uses them
   /// all: at 4 the bunny at toughness 0 spends 28 % less in collisions with no deeper
   /// contacts, but a 1000 m/s hit on a light bar then leaves spheres metres deep, so 8
-  /// stays the default (BENCHMARKS.md, "Self-collision among hundreds of fragments").
+  /// stays the default (docs/decisions/0034-contact-iterations-default-8.md).
   int contact_iterations = 8;
   /// Islands of fragments slower than sleep_speed for sleep_time are held still until
   /// something closes on them (sim::SleepSettings); sleep_speed 0 = never.

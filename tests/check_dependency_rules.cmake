@@ -2,8 +2,8 @@
 # includes GL headers, player/sim and player/render include each other, player/app
 # includes player/view (the viewer builds on the app; main.cpp above both joins them),
 # or the contact response includes contact detection (both share contacts/contact.h)
-# (docs/architecture.md: the player never links CGAL or assimp; sim never touches GL;
-# the app hands render spans of the physics' state).
+# (docs/architecture.md, "Modules and their imports": the player never links CGAL or
+# assimp; sim never touches GL; the app hands render spans of the physics' state).
 set(violations "")
 foreach(dir formats player)
   file(GLOB_RECURSE files "${SOURCE_DIR}/${dir}/*.h" "${SOURCE_DIR}/${dir}/*.cpp")

@@ -1,5 +1,5 @@
 #pragma once
-/// The player's loop (DESIGN.md, "Player loop and the sim/render boundary"): physics at
+/// The player's loop (docs/architecture.md, "The player"): physics at
 /// the scene's fixed dt, decoupled from frames by an accumulator, with observers that
 /// watch it (report, trajectory, diagnostics; frames when the renderer comes). An
 /// observer costs nothing when it is not added. A step that fails stops the loop and is

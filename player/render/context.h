@@ -1,7 +1,7 @@
 #pragma once
-/// Headless OpenGL 4.5 core contexts (DESIGN.md, Rendering). A backend only makes the
-/// context current and loads GL's functions; the renderer draws into its own FBO, so
-/// every backend gives the same image.
+/// Headless OpenGL 4.5 core contexts (docs/architecture.md, "The sim/render boundary"). A
+/// backend only makes the context current and loads GL's functions; the renderer draws
+/// into its own FBO, so every backend gives the same image.
 ///  - OSMesa: Mesa's off-screen library, software (llvmpipe); the default on Debian 12.
 ///  - EGL without a window system: Mesa's surfaceless platform (no display, no /dev/dri;
 ///    llvmpipe here), else the first EGL device (EGL_EXT_platform_device: NVIDIA's

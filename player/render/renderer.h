@@ -1,8 +1,9 @@
 #pragma once
-/// The renderer (thesis chapter V; DESIGN.md, Rendering): draws the embedded render
-/// meshes from the cage's motion, plus plain meshes (ground, obstacles, projectiles),
-/// into its own framebuffer, and reads the image back. GL-free interface: the app hands
-/// it float and integer spans (player/app/render_frame.h); it never sees the physics.
+/// The renderer (thesis chapter V; docs/architecture.md, "The sim/render boundary"):
+/// draws the embedded render meshes from the cage's motion, plus plain meshes (ground,
+/// obstacles, projectiles), into its own framebuffer, and reads the image back. GL-free
+/// interface: the app hands it float and integer spans (player/app/render_frame.h); it
+/// never sees the physics.
 ///
 /// Embedded mesh (V.A): each (triangle, tet) instance is three vertices holding their
 /// barycentric coordinates in that tet, in a static buffer uploaded once. Per frame only

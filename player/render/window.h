@@ -1,8 +1,8 @@
 #pragma once
-/// The renderer's third backend (DESIGN.md, Rendering): a GLFW window with a GL 4.5 core
-/// context, and a Dear ImGui layer drawn over it. The renderer still draws into its own
-/// framebuffer; the window shows it with Renderer::present(), so a window and a headless
-/// context give the same image.
+/// The renderer's third backend (docs/architecture.md, "The sim/render boundary"): a GLFW
+/// window with a GL 4.5 core context, and a Dear ImGui layer drawn over it. The renderer
+/// still draws into its own framebuffer; the window shows it with Renderer::present(), so
+/// a window and a headless context give the same image.
 
 #include <memory>
 #include <string>

@@ -1,5 +1,6 @@
 #pragma once
-/// Corotational linear elasticity on tetrahedra (thesis eqs. 4.1–4.8, DESIGN.md).
+/// Corotational linear elasticity on tetrahedra (thesis eqs. 4.1–4.8; docs/architecture.md,
+/// "The physics in brief").
 ///
 /// Per tet with rest nodes X0..X3 and current x0..x3: F = Σ xᵢ gᵢᵀ, where gᵢ are the
 /// rest-shape gradients of the linear shape functions (g₀ = −g₁ − g₂ − g₃). F = Q S

@@ -15,7 +15,8 @@ struct ContactMaterial {
   /// μ_r ≥ 0: a contact resists its sides' relative spin with a couple of at most μ_r r
   /// times its normal force (r: the sphere's radius; rolling_resistance.h says why);
   /// pairs use √(μa μb). 0.1 stops a one-tet chip spinning at 20 rad/s in about 0.5 s;
-  /// off by default until the sample is measured with it (docs/decisions.md, session 30).
+  /// off by default until the sample is measured with it
+  /// (docs/decisions/0035-rolling-resistance-and-sleeping-opt-in.md).
   double rolling_resistance = 0.0;
 };
 

@@ -1,6 +1,6 @@
 #pragma once
 /// Node-splitting fracture (thesis IV.G; O'Brien & Hodgins 1999, snapped to element
-/// boundaries as in Parker & O'Brien 2009; DESIGN.md "Fracture").
+/// boundaries as in Parker & O'Brien 2009; docs/architecture.md, "The physics in brief").
 ///
 /// Each tet's world stress is split into tensile and compressive parts by its
 /// eigenvalues; each node collects the nodal forces of both parts from its tets, and

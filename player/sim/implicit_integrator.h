@@ -1,5 +1,6 @@
 #pragma once
-/// Implicit backward Euler for one deformable body (Baraff & Witkin 1998; DESIGN.md):
+/// Implicit backward Euler for one deformable body (Baraff & Witkin 1998; docs/architecture.md,
+/// "The physics in brief"):
 ///   (M − h D − h² K) Δv = h (f + h K v),  v ← v + Δv,  x ← x + h v
 /// with K = ∂f/∂x at the start of the step (warped or exact, see CorotatedElasticity),
 /// Rayleigh damping D = −α M + β K, lumped masses, gravity, and pinned nodes removed

@@ -50,7 +50,7 @@ class SparseBlocks {
   /// Blocks larger than this may keep a stale factor (set_outer_terms): on the bunny's
   /// piles a fragment of 600-1,300 nodes took 3-7 ms to factor, 45 % of the response
   /// when repeated every outer iteration; kept, the pile's collision phase took 16-38 %
-  /// less time for 20-45 % more CG iterations (docs/decisions.md, issue 16, session 32).
+  /// less time for 20-45 % more CG iterations (docs/decisions/0025-sparse-blocks-for-large-fragments.md).
   /// On a 98-node slab the stale factor doubled the CG iterations, which cost more than
   /// its cheap factorizations.
   static constexpr std::size_t kKeptFactorNodes = 256;

@@ -1,9 +1,10 @@
 // SparseCholesky without CHOLMOD (FISSURE_WITH_CHOLMOD=OFF): Eigen's simplicial LLᵀ
 // with an AMD ordering. Everything Eigen does is MPL-2.0, so a player built this way
-// links no GPL code of SuiteSparse (docs/licensing.md). It is slower on large cages
-// (no supernodes, so no BLAS-3 kernels; BENCHMARKS.md), solves in double whatever the
-// precision asked (a preconditioner loses nothing by it but memory traffic), and on one
-// thread. The interface and its guarantees are sparse_cholesky.h's.
+// links no GPL code of SuiteSparse (docs/licensing.md). It is slower on large cages (no
+// supernodes, so no BLAS-3 kernels; docs/decisions/0014-own-supernodal-solves.md),
+// solves in double whatever the precision asked (a preconditioner loses nothing by it
+// but memory traffic), and on one thread. The interface and its guarantees are
+// sparse_cholesky.h's.
 #include <Eigen/SparseCholesky>
 
 #include "common/assert.h"

@@ -347,7 +347,7 @@ void World::collide(double dt, StepReport& report) {
   // they bought a pile nothing but time: in 259 of 326 of a pile's responses the last 8
   // each left up to ~20 contacts short by up to 3 cm/s. The light bar under 10^4 m/s^2
   // that sank twice as deep when every substep answered this way, session 28, is no
-  // pile. docs/decisions.md, issue 16, sessions 28, 29 and 31.) Outside a pile (no
+  // pile. docs/decisions/0026-inelastic-first-in-piles.md.) Outside a pile (no
   // response ran long lately) the wasted answer is cheap, and the order stays:
   // restitution first.
   const bool in_pile = m_sparse_block_substeps > 0;

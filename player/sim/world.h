@@ -45,7 +45,8 @@ struct WorldSettings {
   /// A step longer than this is taken as equal substeps no longer than it, each with its
   /// own fracture and contacts (0: never). Scenes default to 1/60 s (formats/scene.h):
   /// the sample bunny hit by its ball keeps the energy bound at 1/60 s and gains ×1.3e13
-  /// at 1/30 s (BENCHMARKS.md, issue 16). The world itself steps what it is told.
+  /// at 1/30 s (docs/decisions/0030-energy-check-per-run.md). The world itself steps
+  /// what it is told.
   double max_substep = 0.0;
   bool fracture = false;
   int max_splits_per_step = 64;  ///< per substep: each substep runs fracture
@@ -88,7 +89,7 @@ struct WorldSettings {
   /// steps dissipated are let through: on the sample scene the strict per-substep test
   /// halved 492 substeps for gains of at most 2.7 mJ, doubling its cost, in a run that
   /// never came within 0.6 J of its bound. 6 keeps both stability grids within the bound
-  /// in every case (BENCHMARKS.md, issue 16).
+  /// in every case (docs/decisions/0033-halving-substeps-that-gain.md).
   int energy_halvings = 6;
   /// Islands of fragments at rest are held still until something closes on them
   /// (sleeping.h); speed 0: never.
@@ -157,8 +158,8 @@ struct StepReport {
   int retaken_to_wake = 0;  ///< times the step was taken again because it closed on a sleeping island
 };
 
-/// What a renderer, recorder or viewer may read of one body between steps (DESIGN.md,
-/// "Player loop and the sim/render boundary"). Valid until the next step.
+/// What a renderer, recorder or viewer may read of one body between steps
+/// (docs/architecture.md, "The sim/render boundary: World::frame"). Valid until the next step.
 struct BodyFrame {
   const Matrix3Xd& positions;           ///< 3×#N now [m]
   const Matrix3Xd& previous_positions;  ///< 3×#N at the start of the last step (a split node: its source's)

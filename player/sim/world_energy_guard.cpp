@@ -37,12 +37,13 @@ bool World::halves_when_gaining(double dt, int depth) const {
 ///    convergence from that answer on arcs (so Newton starts close), its contacts
 ///    answered again, and only their correction turned on arcs afterwards: a converged
 ///    step already turns each part through atan(hω), and the arcs' linearised fit of the
-///    whole displacement would shrink it by cos of that (docs/decisions.md).
+///    whole displacement would shrink it by cos of that (docs/decisions/0031-fragments-turn-on-arcs.md).
 ///  - The contact response (ExactResolve::SolveAndContacts only): its correction moved
 ///    on lines (a bunny crushed under 1e4 m/s² gained 14 kJ in one substep so). Solved
 ///    again exactly with the response's impulses held. Not the default: a 1 mm steel
 ///    sliver with ν = 0.499 lying on the ground then runs away (×1e8) in every seed, from
-///    the step after one such re-solve on; why is open (docs/decisions.md, session 19).
+///    the step after one such re-solve on; why is open
+///    (docs/decisions/0032-exact-resolve-where-a-substep-gains.md).
 double World::solve_exactly_if_gaining(const StepSettings& step, StepReport& report) {
   const double linear = total_energy();
   if (linear <= substep_energy_limit()) return linear;

@@ -440,7 +440,7 @@ class Stability : public ::testing::TestWithParam<StabilityCase> {};
 /// [m]: the bar's thickness. The contact response once let the heavy bar under 1e4 m/s²
 /// sink 16 m and the light one 93 m at dt = 0.1 (its momentum shift undid the contacts
 /// after the iterations stopped, its inner solves did nothing once warm, and a share of
-/// a speed allowed |g| h² / 10 of sinking; docs/decisions.md, session 26); 22 of the
+/// a speed allowed |g| h² / 10 of sinking; docs/decisions/0021-response-stopping-rule.md); 22 of the
 /// grids' cases sank more than this. Now the deepest is 7.3 cm (the light bar hit at
 /// 1000 m/s under 1e4 m/s²).
 constexpr double kDeepestSinking = 0.1;
@@ -500,7 +500,7 @@ TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
               static_cast<long>(scene.world->fragment_count()), run.halvings, run.step_ms_mean, run.step_ms_max, run.deepest);
   // Never more than there was, +1 % and 1 mJ. The cases at dt = 0.1 with a body that
   // shatters kept it only once a substep that still gained was taken again as halves
-  // (WorldSettings::energy_halvings; before: up to ×3.5e8, docs/decisions.md, session 23).
+  // (WorldSettings::energy_halvings; before: up to ×3.5e8, docs/decisions/0033-halving-substeps-that-gain.md).
   EXPECT_LE(run.highest(), 1.01 * run.available + 1e-3);
   EXPECT_LE(run.deepest, kDeepestSinking);
 }
@@ -522,7 +522,7 @@ TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
 // Nearly incompressible (ν = 0.499) it keeps the bound too, and it is the case that
 // showed an exact re-solve (World::solve_exactly_if_gaining) must be taken only where
 // the linear solve itself gains: re-solving every substep that ended above its budget
-// because of its contacts took it to ×1e8 in every seed (session 19, docs/decisions.md).
+// because of its contacts took it to ×1e8 in every seed (docs/decisions/0032-exact-resolve-where-a-substep-gains.md).
 TEST(Stability, AStiffSliverOnTheGroundAtLargeStepsDoesNotRunAway) {
   for (const double poisson : {0.0, 0.499}) {
   for (unsigned seed = 1; seed <= 6; ++seed) {

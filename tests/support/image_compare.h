@@ -2,7 +2,8 @@
 /// Image comparison with tolerances, after Filament's imagediff: a pixel of `actual`
 /// passes when some pixel of `expected` within `shift` pixels matches it to `max_abs` in
 /// every channel; the images match when at most `max_failing_fraction` of the pixels
-/// fail. Renders are never compared byte for byte across Mesa versions (DESIGN.md).
+/// fail. Renders are never compared byte for byte across Mesa versions
+/// (docs/decisions/0037-rendering-embedded-instances.md).
 
 #include <algorithm>
 #include <cstdlib>

@@ -9,7 +9,8 @@
 /// with 𝒜 = diag(each body's system A, each projectile's mass). Its solution is
 /// 𝒜 δ = Σ λ_k c_k with λ_k ≥ 0: a body answers an impulse as the implicit step would,
 /// as a whole and elastically, not by moving one tet (the response that stored ×9 the
-/// energy of the ball hitting the bunny as strain, see BENCHMARKS.md). Because the
+/// energy of the ball hitting the bunny as strain,
+/// docs/decisions/0020-contacts-inside-the-implicit-step.md). Because the
 /// correction minimises a positive-definite form subject to the targets, an inelastic
 /// contact (target ≤ 0) does negative work and never adds energy; only restitution and
 /// the capped push-out of old overlaps ask for a separating velocity.
@@ -30,7 +31,7 @@
 /// of its own likewise (sparse_blocks.h, `sparse_blocks_after`), and no body's own
 /// preconditioner is used. A shattered body is hundreds of small fragments in a pile,
 /// coupled mostly through their contacts: there the blocks cut the response's CG
-/// iterations severalfold (BENCHMARKS.md, "Self-collision among hundreds of fragments").
+/// iterations severalfold (docs/decisions/0024-block-jacobi-with-contacts.md).
 ///
 /// Friction is Coulomb, lagged (as in IPC, Li et al. 2020): a tangential damping
 /// η_k = μ λ_k / max(|v_t|, ε) from the previous outer iteration, so its force is

@@ -7,7 +7,7 @@
 /// friction never sees it; the arcs (rigid_rotation.h) then keep the spin, as they
 /// should for a free body. The one-tet fragments of a shattered pile spun in place at
 /// 97-172 rad/s for seconds, their centres at rest, so the pile never came to rest
-/// (docs/decisions.md, issue 16, session 29). A real chip is no sphere: its corners
+/// (docs/decisions/0035-rolling-resistance-and-sleeping-opt-in.md). A real chip is no sphere: its corners
 /// would catch. Friction weighed where the spheres touch makes a spinning sphere roll
 /// instead, and a rolling sphere rolls for ever; resistance to rolling is the standard
 /// stand-in for the shape a sphere proxy leaves out (Box2D v3's rolling resistance,

@@ -14,7 +14,7 @@
 /// the pairs of a pile of fragments doubled the contacts and cost 40 % more.)
 ///
 /// The thesis (IV.H) collides fragments' spheres from the moment they part and does not
-/// discuss the overlap; this is our deviation (docs/decisions.md).
+/// discuss the overlap; this is our deviation (docs/decisions/0028-split-overlaps-held.md).
 
 #include <span>
 #include <utility>
