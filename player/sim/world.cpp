@@ -325,7 +325,7 @@ void World::collide(double dt, StepReport& report) {
   cs.self_collision = m_settings.self_collision;
   cs.iterations = m_settings.contact_iterations;
   cs.sparse_blocks_after = m_settings.contact_sparse_blocks_after;
-  cs.sparse_blocks_from_start = m_sparse_block_substeps > 0;
+  cs.sparse_blocks_from_start = in_pile();
   cs.impulses = &m_contact_impulses;
   // With the last substep's impulses, before the contacts are found (collision.h).
   resist_rolling(collision_bodies, m_environment, m_contact_impulses);
@@ -350,8 +350,7 @@ void World::collide(double dt, StepReport& report) {
   // pile. docs/decisions/0026-inelastic-first-in-piles.md.) Outside a pile (no
   // response ran long lately) the wasted answer is cheap, and the order stays:
   // restitution first.
-  const bool in_pile = m_sparse_block_substeps > 0;
-  const bool inelastic_first = m_settings.inelastic_first_in_piles && restitutes && m_restitution_futile && in_pile;
+  const bool inelastic_first = m_settings.inelastic_first_in_piles && restitutes && m_restitution_futile && in_pile();
   const ContactCounts counts = contacts.respond(inelastic_first ? 0.0 : 1.0);
   report.contacts.contacts += counts.contacts;
   report.contacts.swept += counts.swept;
@@ -369,8 +368,8 @@ void World::collide(double dt, StepReport& report) {
       m_restitution_futile = false;
     }
   }
-  m_sparse_block_substeps = counts.ran_long ? m_settings.contact_sparse_block_memory
-                                            : std::max(m_sparse_block_substeps - 1, 0);
+  m_pile_substeps_left = counts.ran_long ? m_settings.contact_sparse_block_memory
+                                         : std::max(m_pile_substeps_left - 1, 0);
   report.collisions += seconds_since(start);
 }
 

@@ -295,6 +295,11 @@ class World {
   StepStatus solve_bodies(const StepSettings& step, StepReport& report);
   void launch_and_move_projectiles(double dt);
   void collide(double dt, StepReport& report);
+  /// In a pile: a contact response ran long within the last contact_sparse_block_memory
+  /// substeps (many fragments coupled mostly through their contacts). There the response
+  /// makes its sparse blocks before its first solve, and after a futile restitution the
+  /// inelastic answer comes first (collide()).
+  [[nodiscard]] bool in_pile() const { return m_pile_substeps_left > 0; }
   /// What sleeping sees of the bodies.
   [[nodiscard]] std::vector<SleepBody> sleep_bodies();
   /// What the contact phase may leave: the energy at the substep's start plus what was
@@ -373,7 +378,9 @@ class World {
   double m_linear_end_put_in = 0;            ///< and energy_put_in() after it
   std::vector<Matrix3Xd> m_previous_positions;  ///< per body, at the start of the last whole step
   ContactImpulses m_contact_impulses;  ///< the last step's, to warm-start the next
-  int m_sparse_block_substeps = 0;     ///< substeps left to start with them (contact_sparse_block_memory)
+  /// Substeps the world still counts as in a pile (in_pile()): set to
+  /// contact_sparse_block_memory by a response that ran long, one less each substep after.
+  int m_pile_substeps_left = 0;
   /// The last substep that restituted ended above its budget even inelastically: the
   /// next answers inelastically first (collide()).
   bool m_restitution_futile = false;
