@@ -26,6 +26,7 @@ void write_vec(JsonWriter& json, const char* name, const Vec3& v) {
 void write_phase(JsonWriter& json, const char* name, const PhaseStats& p, long steps) {
   json.key(name).begin_object();
   json.key("mean_ms").value(1e3 * per_step(p.total, steps));
+  json.key("p99_ms").value(1e3 * p.quantile(0.99));
   json.key("max_ms").value(1e3 * p.max);
   json.key("total_s").value(p.total);
   json.end_object();
@@ -137,11 +138,13 @@ void print_summary(const sim::World& world, const RunRecord& run) {
   const long steps = run.end.steps;
   std::printf("%ld steps of %.6g s (%.4g s simulated) in %.3f s wall\n", steps, world.settings().step.dt, world.time(),
               run.end.wall_seconds);
-  std::printf("phase        mean ms    max ms\n");
+  std::printf("phase        mean ms    p99 ms    max ms\n");
   const std::pair<const char*, const PhaseStats*> rows[] = {
       {"forces", &s.forces},         {"assembly", &s.assembly},     {"solve", &s.solve},
       {"fracture", &s.fracture},     {"collisions", &s.collisions}, {"step", &s.step}};
-  for (const auto& [name, p] : rows) std::printf("%-10s %9.3f %9.3f\n", name, 1e3 * per_step(p->total, steps), 1e3 * p->max);
+  for (const auto& [name, p] : rows) {
+    std::printf("%-10s %9.3f %9.3f %9.3f\n", name, 1e3 * per_step(p->total, steps), 1e3 * p->quantile(0.99), 1e3 * p->max);
+  }
   if (const Diagnostics* d = run.diagnostics; d != nullptr) {
     std::printf("energy     %.6g J -> %.6g J (max %.6g J; kinetic + elastic + gravity), %.6g J put in\n",
                 d->energy_initial, d->energy_final, d->energy_max, d->energy_put_in);
