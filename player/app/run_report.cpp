@@ -123,6 +123,7 @@ void write_summary(JsonWriter& json, const sim::World& world, const RunRecord& r
     json.key("sphere_penetration_final_m").value(run.diagnostics->sphere_penetration_final);
     json.key("vertex_penetration_max_m").value(run.diagnostics->vertex_penetration_max);
     json.key("vertex_penetration_final_m").value(run.diagnostics->vertex_penetration_final);
+    json.key("vertex_penetration_where").value(run.diagnostics->vertex_penetration_where);
   }
   json.key("solver_iterations_mean").value(per_step(static_cast<double>(s.iterations), run.end.steps));
   json.key("factorizations").value(static_cast<std::int64_t>(s.factorizations));
@@ -162,6 +163,9 @@ void print_summary(const sim::World& world, const RunRecord& run) {
   if (run.diagnostics != nullptr) {
     std::printf(", penetration max: spheres %.3g m, render vertices %.3g m", run.diagnostics->sphere_penetration_max,
                 run.diagnostics->vertex_penetration_max);
+    if (!run.diagnostics->vertex_penetration_where.empty()) {
+      std::printf(" (%s)", run.diagnostics->vertex_penetration_where.c_str());
+    }
   }
   std::printf("\nresponse  %.1f conjugate-gradient iterations/step inside the implicit step",
               per_step(static_cast<double>(s.response_iterations), steps));
