@@ -49,7 +49,12 @@ void check_input(BundleStatus& status, const formats::BundleMetadata& metadata, 
   for (const fs::path& file : files) {
     std::error_code ec;
     if (!fs::is_regular_file(file, ec)) {
-      mark(status, BundleState::MissingInput, role + " " + file.string() + " not found");
+      // Where the bake read it, relative to the bundle: a bundle copied away from its
+      // inputs lands here, and the flags that name them are the way out.
+      mark(status, BundleState::MissingInput,
+           role + " " + file.string() + " not found" +
+               (asked ? "" : " (where the bake read it, relative to the bundle; if the bundle was copied away from "
+                             "its inputs, pass --mesh and --cage)"));
       return;
     }
   }
