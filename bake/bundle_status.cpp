@@ -168,6 +168,14 @@ int status_exit_code(const std::vector<BundleStatus>& statuses) {
   return code;
 }
 
+formats::VerifyCheck status_check(const fs::path& bundle) {
+  const BundleStatus status = bundle_status(bundle);
+  if (status.state == BundleState::UpToDate) return {"status", true, "inputs, options and bake version match"};
+  std::string detail = to_string(status.state);
+  for (const std::string& reason : status.reasons) detail += "; " + reason;
+  return {"status", false, detail};
+}
+
 const char* to_string(BundleState state) {
   switch (state) {
     case BundleState::UpToDate: return "up-to-date";

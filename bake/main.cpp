@@ -168,16 +168,6 @@ struct VerifyArgs {
   }
 };
 
-/// `verify --status`: one more check, whether the bundle is what its inputs give today, so
-/// that a CI report goes red with the job when a bundle is stale or an input is missing.
-formats::VerifyCheck status_check(const std::string& path) {
-  const bake::BundleStatus status = bake::bundle_status(path);
-  std::string detail = bake::to_string(status.state);
-  for (const std::string& reason : status.reasons) detail += "; " + reason;
-  if (status.state == bake::BundleState::UpToDate) detail = "inputs, options and bake version match";
-  return {"status", status.state == bake::BundleState::UpToDate, detail};
-}
-
 /// "INVALID" only for a broken invariant; a bundle that is sound but over a budget or
 /// stale says so, so a CI log tells a broken bake from a project limit.
 std::string verdict(const formats::JunitSuite& suite) {
@@ -209,7 +199,7 @@ formats::JunitSuite verify_one(const std::string& path, const formats::BundleBud
     suite.error = e.what();
     return suite;
   }
-  if (status) suite.cases.push_back(status_check(path));
+  if (status) suite.cases.push_back(bake::status_check(path));
   // -q: the failures and the verdict only, for build logs; each failure names its bundle,
   // since the lines of many bundles interleave there.
   const bool quiet = log_level() < LogLevel::Info;
