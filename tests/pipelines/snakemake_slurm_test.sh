@@ -7,7 +7,8 @@
 # and --mem; that the killed bake is detected through cluster-status and retried once
 # (before, snakemake waited forever: the run here is bounded); that the report is
 # written. Then the same without Slurm accounting (sacct fails): the status falls back
-# to squeue, and the killed job is still found (its output is missing) and retried.
+# to squeue, and the killed job is still found (its output is missing) and retried. Last,
+# a re-bake that fails on the cluster keeps the last good bundle and fails the report.
 # Not tested here (no Slurm on the test machine): real sbatch option parsing, queueing,
 # shared file-system latency, scancel. pipelines/batch/README.md says so too.
 # Usage: snakemake_slurm_test.sh FISSURE_BAKE REPOSITORY_ROOT
@@ -20,10 +21,11 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 
 mkdir -p "$top/library" "$top/run"
 cp "$root"/data/meshes/bunny-5k.obj "$root"/data/cages/bunny-5k-cage-10.* "$root"/data/cages/bunny-5k-cage-100.* "$top/library/"
+cp "$top/library/bunny-5k.obj" "$top/library/prop.obj"
 cat >"$top/library/assets.yaml" <<'YAML'
 assets:
   hero: {mesh: bunny-5k.obj, cage: bunny-5k-cage-100.node, options: --skip collision}
-  prop: {mesh: bunny-5k.obj, cage: bunny-5k-cage-10.node, options: --wall-res 16}
+  prop: {mesh: prop.obj, cage: bunny-5k-cage-10.node, options: --wall-res 16}
 YAML
 
 export PATH="$here/fake-slurm:$PATH" CI=true  # CI=true: snakemake polls every second, not 10
@@ -70,4 +72,17 @@ out=$(FAKE_SLURM_NO_ACCOUNTING=1 run) || fail "the run without accounting failed
 [ "$(submitted bake hero)" = 2 ] || fail "without accounting, the killed bake was submitted $(submitted bake hero) times"$'\n'"$out"
 grep -q "Trying to restart job" <<<"$out" || fail "without accounting, the killed job was not restarted: $out"
 grep -q 'failures="0" errors="0">' "$report" || fail "the report without accounting: $(head -3 "$report")"
+# A re-bake that fails on the cluster keeps the last good bundle and fails the report.
+before=$(sha256sum <"$top/run/bundles/prop.h5")
+echo "f 1 2 999999" >>"$top/library/prop.obj"
+kill_once nothing
+set +e
+out=$(run)
+rc=$?
+set -e
+[ "$rc" != 0 ] || fail "a broken asset did not fail the run on the cluster: $out"
+[ "$rc" -lt 124 ] || fail "the run with a broken asset hung (exit $rc)"
+[ "$before" = "$(sha256sum <"$top/run/bundles/prop.h5")" ] || fail "the failed re-bake on the cluster changed the last good bundle"
+grep -q '<testcase classname="bundles/prop.h5" name="bake"><failure' "$report" \
+  || fail "the report has no failing bake case after a failed bake on the cluster: $(cat "$report")"
 echo "snakemake on the Slurm profile: all checks passed"
