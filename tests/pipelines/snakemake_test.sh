@@ -96,4 +96,8 @@ work=$top/moved
 out=$(run) || fail "the run after moving the library failed: $out"
 grep -q "Nothing to be done" <<<"$out" || fail "moving the library re-ran: $(baked "$out")"$'\n'"$out"
 "$bake" status "$work"/run/bundles/*.h5 >/dev/null || fail "status calls a moved bundle stale"
+# Every document the Snakefile points to exists (issue 45: pipelines/batch/README.md did not).
+for doc in $(grep -o 'pipelines/[A-Za-z/_.-]*\.md' "$root/pipelines/batch/Snakefile" | sort -u); do
+  [ -f "$root/$doc" ] || fail "the Snakefile points to $doc, which does not exist"
+done
 echo "snakemake batch: all checks passed"
