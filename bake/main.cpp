@@ -156,6 +156,7 @@ struct VerifyArgs {
   std::string junit;
   std::optional<double> max_instances_per_triangle, max_size_mib;
   std::optional<std::uint64_t> max_spheres, max_tiles;
+  bool status = false;  ///< also compare each bundle with its inputs, as `status` does
 
   [[nodiscard]] formats::BundleBudgets budgets() const {
     formats::BundleBudgets b;
@@ -167,9 +168,26 @@ struct VerifyArgs {
   }
 };
 
+/// "INVALID" only for a broken invariant; a bundle that is sound but over a budget or
+/// stale says so, so a CI log tells a broken bake from a project limit.
+std::string verdict(const formats::JunitSuite& suite) {
+  if (suite.passed()) return "all invariants hold";
+  bool invariant = false, budget = false, stale = false;
+  for (const auto& check : suite.cases) {
+    if (check.passed) continue;
+    if (check.name == "status") stale = true;
+    else if (check.name.rfind("budget:", 0) == 0) budget = true;
+    else invariant = true;
+  }
+  if (invariant) return "INVALID";
+  std::string text = budget ? "over budget" : "";
+  if (stale) text += std::string(text.empty() ? "" : ", ") + "stale (re-bake it)";
+  return text + " (invariants hold)";
+}
+
 /// One bundle's invariants and budgets, printed; a bundle that cannot be read is
 /// reported (file and reason) and counted as failed, and the next one is checked.
-formats::JunitSuite verify_one(const std::string& path, const formats::BundleBudgets& budgets) {
+formats::JunitSuite verify_one(const std::string& path, const formats::BundleBudgets& budgets, bool status) {
   formats::JunitSuite suite{path, {}, {}};
   try {
     const formats::Bundle bundle = formats::read_bundle(path);
@@ -181,13 +199,16 @@ formats::JunitSuite verify_one(const std::string& path, const formats::BundleBud
     suite.error = e.what();
     return suite;
   }
-  // -q: the failures and the verdict only, for build logs.
+  if (status) suite.cases.push_back(bake::status_check(path));
+  // -q: the failures and the verdict only, for build logs; each failure names its bundle,
+  // since the lines of many bundles interleave there.
   const bool quiet = log_level() < LogLevel::Info;
   for (const auto& check : suite.cases) {
     if (quiet && check.passed) continue;
-    std::printf("%s  %-28s %s\n", check.passed ? "PASS" : "FAIL", check.name.c_str(), check.detail.c_str());
+    std::printf("%s%s  %-28s %s\n", quiet ? (path + ": ").c_str() : "", check.passed ? "PASS" : "FAIL",
+                check.name.c_str(), check.detail.c_str());
   }
-  std::printf("%s: %s\n", path.c_str(), suite.passed() ? "all invariants hold" : "INVALID");
+  std::printf("%s: %s\n", path.c_str(), verdict(suite).c_str());
   return suite;
 }
 
@@ -197,7 +218,7 @@ int run_verify(const VerifyArgs& args) {
   std::vector<formats::JunitSuite> suites;
   bool passed = true;
   for (const std::string& path : args.bundles) {
-    suites.push_back(verify_one(path, args.budgets()));
+    suites.push_back(verify_one(path, args.budgets(), args.status));
     passed = passed && suites.back().passed();
   }
   if (!args.junit.empty()) write_file_atomically(args.junit, formats::junit_xml(suites));
@@ -260,6 +281,8 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   verify_cmd->add_option("--max-spheres", verify_args.max_spheres, "Budget: collision spheres (contact cost)");
   verify_cmd->add_option("--max-tiles", verify_args.max_tiles, "Budget: wall tiles (texture memory)");
+  verify_cmd->add_flag("--status", verify_args.status,
+                       "Also check that each bundle is up to date with its inputs (as `status` does): one more case each");
 
   std::vector<std::string> cages;
   auto* replication_cmd =

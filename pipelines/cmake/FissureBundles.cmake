@@ -19,6 +19,9 @@
 # `fissure-bake` on the PATH.
 
 include_guard(GLOBAL)
+# The per-bundle bake script beside this file (CMAKE_CURRENT_LIST_DIR inside a function
+# is the caller's folder, so it is kept here).
+set(_FISSURE_BAKE_BUNDLE_SCRIPT "${CMAKE_CURRENT_LIST_DIR}/FissureBakeBundle.cmake")
 
 function(_fissure_bake_tool out_command out_depends)
   if(FISSURE_BAKE_EXECUTABLE)
@@ -69,24 +72,32 @@ function(fissure_add_bundle name)
     set(cage_files "${node}" "${ele}")
   endif()
 
+  # OPTIONS "--wall-res 16" (one quoted string) is the flags of OPTIONS --wall-res 16.
+  set(options "")
+  foreach(option IN LISTS ARG_OPTIONS)
+    separate_arguments(words UNIX_COMMAND "${option}")
+    list(APPEND options ${words})
+  endforeach()
+  if(options MATCHES "[|]")
+    message(FATAL_ERROR "fissure_add_bundle(${name}): OPTIONS cannot hold a | (${options})")
+  endif()
+
   # The options live in a stamp file rewritten only when they change, so editing them
   # re-bakes under every generator (Make does not track command lines, Ninja does).
   set(stamp "${CMAKE_CURRENT_BINARY_DIR}/fissure-bundles/${name}.options")
-  file(CONFIGURE OUTPUT "${stamp}" CONTENT "${ARG_OPTIONS}\n")
+  file(CONFIGURE OUTPUT "${stamp}" CONTENT "${options}\n")
 
   _fissure_bake_tool(bake bake_depends)
-  # Baked to a temporary name, verified, then renamed: the bundle is never half-made
-  # or unverified, and a failure keeps the previous one out of date, so it runs again.
-  set(temporary "${output}.building.h5")
-  cmake_path(GET output PARENT_PATH output_folder)
+  # Baked to a temporary name, verified, then renamed (FissureBakeBundle.cmake): the
+  # bundle is never half-made or unverified, and a failure keeps the previous one out of
+  # date, so it runs again.
+  string(REPLACE ";" "|" joined_options "${options}")
   cmake_path(GET mesh FILENAME mesh_name)
   cmake_path(GET cage FILENAME cage_name)
   add_custom_command(
     OUTPUT "${output}"
-    COMMAND "${CMAKE_COMMAND}" -E make_directory "${output_folder}"
-    COMMAND "${bake}" -q bake --mesh "${mesh}" --cage "${cage}" -o "${temporary}" ${ARG_OPTIONS}
-    COMMAND "${bake}" -q verify "${temporary}"
-    COMMAND "${CMAKE_COMMAND}" -E rename "${temporary}" "${output}"
+    COMMAND "${CMAKE_COMMAND}" "-DFISSURE_BAKE=${bake}" "-DMESH=${mesh}" "-DCAGE=${cage}" "-DOUTPUT=${output}"
+            "-DOPTIONS=${joined_options}" -P "${_FISSURE_BAKE_BUNDLE_SCRIPT}"
     DEPENDS "${mesh}" ${cage_files} "${stamp}" ${bake_depends}
     COMMENT "Baking bundle ${name}: ${mesh_name} in ${cage_name}"
     VERBATIM)
