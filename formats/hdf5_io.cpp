@@ -10,6 +10,7 @@
 
 #include "common/child_probe.h"
 #include "common/error.h"
+#include "common/input_file.h"
 #include "common/output_file.h"
 
 namespace fissure::formats::h5 {
@@ -130,6 +131,7 @@ void write_file_atomically(const std::filesystem::path& path, const std::functio
 }
 
 Handle open_file_read_only(const std::string& path) {
+  fissure::require_regular_input(path);  // HDF5 would read a FIFO or /dev/zero without end
   silence_library_errors();
   if (H5Fis_hdf5(path.c_str()) <= 0) {
     throw Error(path + ": not an HDF5 file (or unreadable)", "check the path: bundles and trajectories are HDF5 files");
@@ -149,6 +151,7 @@ bool has_checksummed_metadata(const std::filesystem::path& path) {
 }
 
 void require_legacy_file_readable(const std::filesystem::path& path, const std::function<void()>& read_all) {
+  fissure::require_regular_input(path);
   if (inside_child_probe() || has_checksummed_metadata(path)) return;
   const ChildProbeOutcome outcome = run_in_child(read_all);
   if (outcome.finished) return;
