@@ -17,6 +17,7 @@
 #include <utility>
 
 #include "common/error.h"
+#include "common/input_file.h"
 
 namespace fissure::formats {
 namespace {
@@ -294,6 +295,16 @@ class Table {
   }
 
   /// Elements of an array of tables (`[[a.b]]`), named `path[i]` in messages.
+  /// How many entries of one kind a scene may hold (issue 46): each object is a bundle
+  /// loaded and checked, and its spheres meet every other body's; projectiles and
+  /// obstacles are tested against every sphere each step. A scene of 1,001 overlapping
+  /// objects ran out of memory, and 100,000 boxes took seconds a step.
+  static std::size_t max_entries(const std::string& header) {
+    if (header == "[object]") return 256;
+    if (header == "[projectile]") return 1024;
+    return 4096;  // boxes, spheres, pins of one object
+  }
+
   std::vector<Table> table_array(std::string_view key, const std::string& header) const {
     std::vector<Table> tables;
     const toml::node* node = find(key);
@@ -301,6 +312,11 @@ class Table {
     const auto* array = node->as_array();
     const std::string hint = "write a [" + header + "] section (double brackets) for each one";
     if (!array) fail(line_of(*node), key_path(key) + " must be an array of tables, got " + describe_type(*node), hint);
+    if (const std::size_t most = max_entries(header); array->size() > most) {
+      fail(line_of(*array->get(most)), key_path(key) + ": " + std::to_string(array->size()) + " [" + header +
+               "] sections, more than the " + std::to_string(most) + " a scene may hold",
+           "split the scene, or merge entries; each one costs memory and time every step");
+    }
     for (std::size_t i = 0; i < array->size(); ++i) {
       const toml::node& element = *array->get(i);
       const std::string path = key_path(key) + "[" + std::to_string(i) + "]";
@@ -606,16 +622,8 @@ Scene parse_scene(std::string_view text, const std::filesystem::path& file_for_m
 }
 
 Scene read_scene(const std::filesystem::path& file) {
-  std::error_code ec;
-  if (!std::filesystem::exists(file, ec)) {
-    throw Error(file.string() + ": file not found", "check the path; relative paths are resolved from the working directory");
-  }
-  if (std::filesystem::is_directory(file, ec)) throw Error(file.string() + ": is a directory, not a scene file");
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw Error(file.string() + ": cannot open the file for reading");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return parse_scene(buffer.str(), file);
+  // A scene is text; 64 MiB holds a million bodies' worth, and /dev/zero is refused.
+  return parse_scene(read_input_file(file, std::uint64_t{64} << 20), file);
 }
 
 }  // namespace fissure::formats
