@@ -196,15 +196,26 @@ struct Instance {
 };
 
 /// Every triangle mesh the scene graph places, with its accumulated node transform.
-std::vector<Instance> collect_instances(const aiScene& scene) {
+/// The graph is checked as it is walked: on some damaged files assimp's RAW reader
+/// leaves a null in a node's list of children (found by scripts/fuzz-cli.py, issue 46),
+/// which crashed the bake here, after the probe had read the file without harm.
+std::vector<Instance> collect_instances(const aiScene& scene, const std::string& name) {
   std::vector<Instance> instances;
   const auto collect = [&](const auto& self, const aiNode* node, const aiMatrix4x4& parent) -> void {
     const aiMatrix4x4 transform = parent * node->mTransformation;
     for (unsigned i = 0; i < node->mNumMeshes; ++i) {
-      const aiMesh* mesh = scene.mMeshes[node->mMeshes[i]];
+      const unsigned index = node->mMeshes[i];
+      if (index >= scene.mNumMeshes || scene.mMeshes[index] == nullptr) {
+        throw Error(name + ": the scene graph refers to mesh " + std::to_string(index) + " of " +
+                        std::to_string(scene.mNumMeshes),
+                    "the file is damaged; export it again, or convert it to OBJ or PLY");
+      }
+      const aiMesh* mesh = scene.mMeshes[index];
       if ((mesh->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) != 0) instances.push_back({mesh, transform});
     }
-    for (unsigned c = 0; c < node->mNumChildren; ++c) self(self, node->mChildren[c], transform);
+    for (unsigned c = 0; c < node->mNumChildren; ++c) {
+      if (node->mChildren[c] != nullptr) self(self, node->mChildren[c], transform);
+    }
   };
   if (scene.mRootNode != nullptr) collect(collect, scene.mRootNode, aiMatrix4x4());
   return instances;
@@ -290,7 +301,7 @@ ImportedMesh import_assimp(const std::filesystem::path& path, std::uintmax_t fil
   require_assimp_survives(path, file_bytes);
   Assimp::Importer importer;
   const aiScene* scene = read_assimp_scene(importer, name);
-  const std::vector<Instance> instances = collect_instances(*scene);
+  const std::vector<Instance> instances = collect_instances(*scene, name);
 
   ImportedMesh result;
   result.source_meshes = instances.size();

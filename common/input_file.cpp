@@ -24,7 +24,11 @@ std::string special_file_kind(const std::filesystem::path& path) {
 void require_regular_input(const std::filesystem::path& path) {
   const std::string name = path.string();
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
+  const std::filesystem::file_status status = std::filesystem::status(path, ec);
+  if (ec && ec != std::errc::no_such_file_or_directory) {
+    throw Error(name + ": cannot be read: " + ec.message(), "check the path (a symbolic link to itself?) and permissions");
+  }
+  if (!std::filesystem::exists(status)) {
     throw Error(name + ": file not found", "check the path; relative paths are resolved from the working directory");
   }
   if (std::filesystem::is_directory(path, ec)) throw Error(name + ": is a directory, not a file");

@@ -182,7 +182,8 @@ LoadedScene load_scene(const formats::Scene& scene) {
   std::size_t total_spheres = 0, total_tets = 0;
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const formats::SceneObject& object = scene.objects[i];
-    if (!std::filesystem::exists(object.bundle)) {
+    std::error_code ec;  // a link loop or an unreadable folder is read_bundle's error, not an exception here
+    if (!std::filesystem::exists(object.bundle, ec) && !ec) {
       throw Error(scene.file.string() + ":" + std::to_string(object.line) + ": object[" + std::to_string(i) +
                       "].bundle " + object.bundle.string() + " does not exist",
                   "paths are relative to the scene file's folder; bake the bundle with `fissure-bake bake` first");

@@ -58,6 +58,16 @@ TEST(BakeHostile, AssimpReadersThatHangOrRunAwayAreStoppedNamingTheReader) {
   }
 }
 
+TEST(BakeHostile, AHoleInAssimpsSceneGraphIsWalkedSafely) {
+  // Found by the round-2 campaign (assimp's RAW reader, 8 bit flips): SIGSEGV in the
+  // bake's own walk of the scene graph, where the probe could not see it.
+  testing::TempDir dir;
+  const auto raw = kHostile / "raw-bit-flips-null-child-node-segv.raw";
+  const Result r = bake("-q bake --mesh " + quoted(raw) + " --cage " + quoted(kCage) + " -o " + quoted(dir / "b.h5"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("173 triangles in 10 tets"), std::string::npos) << r.output;
+}
+
 TEST(BakeHostile, RepeatedFacesCostNoMoreThanDistinctOnes) {
   // A cube's 12 faces listed 5,000 times (480 KB): std::bad_alloc in the topology
   // stage before; now the copies are dropped with a count.
