@@ -1,6 +1,8 @@
 #include "common/child_probe.h"
 
 #include <fcntl.h>
+#include <poll.h>
+#include <sys/syscall.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -118,29 +120,46 @@ void read_error(int fd, ChildProbeOutcome& outcome) {
   outcome.error_hint = text.substr(split + 1);
 }
 
+/// Waits up to `seconds` for the child to end, without polling where the kernel can
+/// say when (a pidfd, Linux 5.3+); otherwise sleeps in short, growing steps.
+void wait_until_ended_or(pid_t child, double seconds) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  const int fd = static_cast<int>(::syscall(SYS_pidfd_open, child, 0));
+  auto pause = std::chrono::microseconds(200);
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) break;
+    if (fd >= 0) {
+      pollfd ended{fd, POLLIN, 0};
+      const int ready = ::poll(&ended, 1, static_cast<int>(std::min<long long>(left.count() + 1, 1 << 30)));
+      if (ready != 0 && !(ready < 0 && errno == EINTR)) break;
+      continue;
+    }
+    siginfo_t info{};
+    if (::waitid(P_PID, static_cast<id_t>(child), &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == child) break;
+    std::this_thread::sleep_for(std::min<std::chrono::microseconds>(pause, left));
+    pause = std::min(pause * 2, std::chrono::microseconds(20000));
+  }
+  if (fd >= 0) ::close(fd);
+}
+
 /// Waits for the child, killing it once `wall_seconds` have passed (0: waits as long as
 /// it takes). Returns the status, and whether it had to kill.
 int wait_for(pid_t child, double wall_seconds, bool& killed) {
-  using Clock = std::chrono::steady_clock;
-  const auto deadline = Clock::now() + std::chrono::duration<double>(wall_seconds);
-  auto pause = std::chrono::microseconds(200);
-  int status = 0;
   killed = false;
-  for (;;) {
-    const pid_t done = ::waitpid(child, &status, wall_seconds > 0 && !killed ? WNOHANG : 0);
+  if (wall_seconds > 0) {
+    wait_until_ended_or(child, wall_seconds);
+    int status = 0;
+    const pid_t done = ::waitpid(child, &status, WNOHANG);
     if (done == child) return status;
-    if (done < 0 && errno != EINTR) throw Error(std::string("cannot wait for the reading process: ") + std::strerror(errno));
-    if (done == 0 && Clock::now() >= deadline) {
-      ::kill(child, SIGKILL);
-      killed = true;
-      continue;
-    }
-    if (done == 0) {
-      // Most probes end within milliseconds: poll often first, then less.
-      std::this_thread::sleep_for(pause);
-      pause = std::min(pause * 2, std::chrono::microseconds(20000));
-    }
+    ::kill(child, SIGKILL);
+    killed = true;
   }
+  int status = 0;
+  while (::waitpid(child, &status, 0) < 0) {
+    if (errno != EINTR) throw Error(std::string("cannot wait for the reading process: ") + std::strerror(errno));
+  }
+  return status;
 }
 
 }  // namespace
