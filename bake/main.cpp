@@ -257,8 +257,8 @@ void add_bake_command(Cli& cli) {
   bake_cmd->add_option("-o,--output", cli.output, "Bundle to write (.h5); written atomically")->required();
   cli.bake_flags.add_to(bake_cmd);
   bake_cmd->add_flag("--no-work-limit", cli.no_work_limit,
-                     "Run a stage whose estimated work is past its limit (a very small --sphere-radius), "
-                     "however long it takes");
+                     "Run a stage whose estimated work is past its limit (a very small --sphere-radius, a very "
+                     "large --wall-res), however long it takes");
 }
 
 void add_inspect_command(Cli& cli) {
@@ -311,7 +311,10 @@ void add_replication_command(Cli& cli) {
 int run_command(const Cli& cli) {
   if (*cli.bake_cmd) {
     bake::BakeOptions options = cli.bake_flags.to_options();
-    if (cli.no_work_limit) options.spheres.max_grid_points = 0;
+    if (cli.no_work_limit) {
+      options.spheres.max_grid_points = 0;
+      options.wall.max_work = 0;
+    }
     return run_bake(cli.mesh, cli.cage, cli.output, options);
   }
   if (*cli.inspect_cmd) return run_inspect(cli.bundle_path, cli.json);

@@ -276,9 +276,7 @@ def special_cases(camp):
 BAKE_FLAGS = [
     ["--sphere-radius", v] for v in ("nan", "inf", "-inf", "-1", "0", "1e-300", "1e-12", "1e-5", "1e-4", "1e308",
                                      "1e999", "0x10", "")] + [
-    # 4096, the largest allowed, takes ~19 s on the seed (bounded by --wall-memory-budget,
-    # with progress; no work estimate yet): too close to the campaign's 20 s.
-    ["--wall-res", v] for v in ("0", "1", "2", "1024", "4097", "-1", "2147483648", "1e9", "nan")] + [
+    ["--wall-res", v] for v in ("0", "1", "2", "1024", "4096", "4097", "-1", "2147483648", "1e9", "nan")] + [
     ["--wall-memory-budget", v] for v in ("nan", "inf", "0", "-1", "1e-12", "1e15", "1e308")] + [
     ["--winding-accuracy", v] for v in ("nan", "-nan", "inf", "0", "1", "100", "100.0001", "1e308")] + [
     ["-j", v] for v in ("-1", "0", "256", "257", "1e9", "nan")] + [

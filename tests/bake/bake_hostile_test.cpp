@@ -169,6 +169,22 @@ TEST(BakeHostile, ASphereRadiusPastTheWorkLimitIsRefusedWithTheEstimateAndTheFla
   }
 }
 
+TEST(BakeHostile, AWallResolutionPastTheWorkLimitIsRefusedWithTheEstimateAndTheFlag) {
+  // --wall-res 4096 on the campaign's 320-triangle sphere took 19 s with nothing shown.
+  testing::TempDir dir;
+  const std::string bake_sphere = "bake --mesh " + quoted(kHostile / "ply-sphere-valid.ply") + " --cage " +
+                                  quoted(kCage) + " -o " + quoted(dir / "b.h5") + " --skip collision --wall-res ";
+  const auto start = std::chrono::steady_clock::now();
+  Result r = bake(bake_sphere + "4096", 30);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_LT(seconds_since(start), 5.0);
+  EXPECT_NE(r.output.find("--wall-res 4096 implies about 2.5e+09 texel distance tests for 8 tiles"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--no-work-limit"), std::string::npos) << r.output;
+  // A moderate resolution is not refused.
+  r = bake("-q " + bake_sphere + "256", 30);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+}
+
 TEST(BakeHostile, EveryUsageErrorIsExitOne) {
   testing::TempDir dir;
   const std::string inputs = "bake --mesh " + quoted(kMesh) + " --cage " + quoted(kCage) + " -o " + quoted(dir / "b.h5");
