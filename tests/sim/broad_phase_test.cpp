@@ -1,7 +1,7 @@
-// The self-collision broad phase (player/sim/broad_phase.h): bodies piled inside one
+// The self-collision broad phase (player/sim/contacts/broad_phase.h): bodies piled inside one
 // another make every point meet every other; past a limit that is an error, not an
 // allocation that grows with the square of the points (issue 46).
-#include "player/sim/broad_phase.h"
+#include "player/sim/contacts/broad_phase.h"
 
 #include <gtest/gtest.h>
 
