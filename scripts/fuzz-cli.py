@@ -1211,6 +1211,9 @@ def main():
     bad = [f for f in formats if f not in FORMATS]
     if bad:
         ap.error("unknown format(s): %s" % ", ".join(bad))
+    for program in (args.bake, args.player):
+        if not os.access(program, os.X_OK):
+            sys.exit("fuzz-cli: %s is not an executable (build it first)" % program)
     for tool in ("timeout", "prlimit"):
         if not shutil.which(tool):
             sys.exit("fuzz-cli: needs %s on PATH" % tool)
