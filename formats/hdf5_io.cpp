@@ -153,7 +153,15 @@ bool has_checksummed_metadata(const std::filesystem::path& path) {
 void require_legacy_file_readable(const std::filesystem::path& path, const std::function<void()>& read_all) {
   fissure::require_regular_input(path);
   if (inside_child_probe() || has_checksummed_metadata(path)) return;
-  const ChildProbeOutcome outcome = run_in_child(read_all);
+  // A budget, as for assimp (issue 46): reading a sound legacy bundle takes well under
+  // a second per 100 MiB, so a damaged one that loops or allocates without end stops.
+  std::error_code ec;
+  const double mib = static_cast<double>(std::filesystem::file_size(path, ec) >> 20);
+  ChildProbeLimits limits;
+  limits.wall_seconds = 10.0 + mib / 10.0;
+  limits.cpu_seconds = limits.wall_seconds + 2.0;
+  limits.memory_bytes = (std::uint64_t{2} << 30) + 16 * (std::uint64_t{1} << 20) * static_cast<std::uint64_t>(mib);
+  const ChildProbeOutcome outcome = run_in_child(read_all, limits);
   if (outcome.finished) return;
   throw Error(path.string() + ": damaged HDF5 file: reading it " + outcome.how + " inside the HDF5 library",
               "this file uses HDF5's legacy container, which has no checksums; a file written by this version "
