@@ -117,6 +117,7 @@ void add_wall_tables(const formats::Bundle& bundle, double scale, render::Embedd
     }
   }
   mesh.tile_resolution = static_cast<int>(w.resolution);
+  if (w.sdf_range_texels > 0.0) mesh.tile_range_texels = static_cast<float>(w.sdf_range_texels);
   mesh.tiles = w.sdf;
   // The detail repeats every quarter of the cage's mean edge, on every face alike.
   mesh.detail_resolution = static_cast<int>(w.detail_resolution);

@@ -42,6 +42,15 @@ struct CornerKeyHash {
   }
 };
 
+/// How far inside the exact contour a crossing wall stops, in tile texels. The tile's
+/// distance is exact at texel centres, but linear filtering rounds the contour's reflex
+/// corners outward by a fraction of a texel, and a wall that reaches past the surface
+/// shows through it near the seam or past the silhouette (issue 44: 90-170 specks in a
+/// 480² view of a sphere split along every face, unmoved). Half a texel removes all of
+/// them in six views (a quarter leaves 2-5); the gap it leaves between a wall and its
+/// own surface in an open crack is sub-pixel at the sample's sizes (decisions/0050).
+constexpr float kWallErosionTexels = 0.5f;
+
 /// BodyPose::faces' value of a face fracture opened (sim::FaceState::Fractured).
 constexpr std::uint8_t kFaceFractured = 2;
 
@@ -106,6 +115,7 @@ struct EmbeddedBody {
   GLsizei wall_count = 0;
   GLuint tiles = 0;  ///< GL_TEXTURE_2D_ARRAY, 0 without tiles
   TileAtlas atlas;
+  float solid_threshold = 127.5f / 255.0f;  ///< the wall shader's least drawn distance (kWallErosionTexels)
   ~EmbeddedBody() {
     if (tiles != 0) glDeleteTextures(1, &tiles);
     if (detail != 0) glDeleteTextures(1, &detail);
@@ -374,11 +384,17 @@ struct Renderer::Impl {
       glPatchParameteri(GL_PATCH_VERTICES, 3);
     }
     glBindVertexArray(empty_vertex_array.get());
+    // A wall meets its body's surface along the contour at the same depth: pushed back
+    // by one depth step of its own slope, it loses those ties to the surface instead of
+    // showing through it as a dotted line (issue 44; decisions/0050).
+    glEnable(GL_POLYGON_OFFSET_FILL);
+    glPolygonOffset(1.0f, 1.0f);
     for (const auto& body : bodies) {
       if (!body->visible || !body->posed || body->wall_count == 0) continue;
       glUniform3fv(program.uniform("base_color"), 1, body->interior_color.data());
       glUniform2i(program.uniform("tile_layout"), body->atlas.resolution, body->atlas.cells);
       glUniform1i(program.uniform("detail_resolution"), body->detail_resolution);
+      glUniform1f(program.uniform("solid_threshold"), body->solid_threshold);
       glBindTextureUnit(0, body->tiles);
       glBindTextureUnit(1, body->detail);
       glBindTextureUnit(2, body->height);
@@ -392,6 +408,7 @@ struct Renderer::Impl {
       body->face_uv.bind(5);
       glDrawArrays(tessellate ? GL_PATCHES : GL_TRIANGLES, 0, 3 * body->wall_count);
     }
+    glDisable(GL_POLYGON_OFFSET_FILL);
   }
 
   void draw_cages(const Mat4f& view_projection) {
@@ -495,6 +512,8 @@ std::size_t Renderer::add_body(const EmbeddedMesh& mesh) {
   m_impl->pending_upload += body->face_tile.upload(mesh.face_tile.data(), mesh.face_tile.size() * sizeof(std::int32_t));
   m_impl->pending_upload += body->face_uv.upload(mesh.face_uv.data(), mesh.face_uv.size() * sizeof(float));
   body->tiles = upload_tiles(mesh, body->atlas);
+  // A tile byte is 127.5 ± 127 × distance / range (bake/walls.cpp).
+  body->solid_threshold = (127.5f + 127.0f * kWallErosionTexels / std::max(mesh.tile_range_texels, 1e-3f)) / 255.0f;
   body->detail = upload_detail(mesh.detail_resolution, mesh.detail_normal, 3);
   std::vector<float> repeat = mesh.face_detail_repeat;
   repeat.resize(2 * mesh.face_tile.size(), 1.0f);

@@ -63,6 +63,7 @@ struct EmbeddedMesh {
   std::vector<std::int32_t> face_tile;
   std::vector<float> face_uv;          ///< 6 per slot
   int tile_resolution = 0;             ///< texels per tile side
+  float tile_range_texels = 4.0f;      ///< the distance a tile's 0 and 255 stand for, in texels (Walls::sdf_range_texels)
   std::vector<std::uint8_t> tiles;     ///< tiles × resolution²: ≥ 128 inside the solid (the bake's SDF)
   Vec3f interior_color = Vec3f(0.80f, 0.45f, 0.36f);
   /// The shared detail material of the walls: a tileable tangent-space normal map

@@ -262,6 +262,7 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
   const auto at = [&](const formats::Image& image, int px, int py) { return &image.rgba[4 * (py * kSize + px)]; };
   const auto foreground = [&](int px, int py) { return !std::equal(at(open, px, py), at(open, px, py) + 3, at(open, 0, 0)); };
   std::size_t wall = 0, section = 0, stray = 0, flat_wall = 0, relit = 0, relief_wall = 0, relief_stray = 0;
+  std::size_t bare = 0, relief_bare = 0;  // section pixels a pixel or more inside its edge that no wall covers
   for (int py = 0; py < kSize; ++py) {
     for (int px = 0; px < kSize; ++px) {
       const bool is_wall = !std::equal(at(walls, px, py), at(walls, px, py) + 3, at(open, px, py));
@@ -271,29 +272,38 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
       const bool is_flat_wall = !std::equal(at(flat, px, py), at(flat, px, py) + 3, at(open, px, py));
       flat_wall += is_flat_wall ? 1 : 0;
       relit += is_wall && !std::equal(at(flat, px, py), at(flat, px, py) + 3, at(walls, px, py)) ? 1 : 0;
-      bool near_section = false;
+      bool near_section = false, inside_section = true;
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
           const int qx = std::clamp(px + dx, 0, kSize - 1), qy = std::clamp(py + dy, 0, kSize - 1);
           near_section = near_section || foreground(qx, qy);
+          inside_section = inside_section && foreground(qx, qy);
         }
       }
       stray += is_wall && !near_section ? 1 : 0;
+      bare += inside_section && !is_wall ? 1 : 0;
       const bool is_relief_wall = !std::equal(at(relief, px, py), at(relief, px, py) + 3, at(open, px, py));
       relief_wall += is_relief_wall ? 1 : 0;
       relief_stray += is_relief_wall && !near_section ? 1 : 0;
+      relief_bare += inside_section && !is_relief_wall ? 1 : 0;
     }
   }
-  std::printf("walls: %zu wall pixels over a cross-section of %zu, %zu outside it\n", wall, section, stray);
+  std::printf("walls: %zu wall pixels over a cross-section of %zu, %zu outside it, %zu inside it bare\n", wall, section,
+              stray, bare);
   EXPECT_GT(section, static_cast<std::size_t>(kSize * kSize / 10));
-  EXPECT_EQ(stray, 0u);                            // never over a face outside the solid
-  EXPECT_GE(wall, section - section / 50);          // and over (nearly) all of the section
+  EXPECT_EQ(stray, 0u);  // never over a face outside the solid
+  // And over all of the section but its edge: the walls stop half a texel inside the
+  // contour, and the surface reaches half a pixel past the cut (renderer.cpp,
+  // embedded.frag.glsl), which leaves at most a pixel's ring.
+  EXPECT_LE(bare, section / 500);
+  EXPECT_GE(wall, section - section / 20);
   EXPECT_EQ(flat_wall, wall);
   EXPECT_GT(relit, wall / 2) << "the detail normals should change most wall pixels' shading";
   // Tessellated relief moves the walls along their normals, faded to nothing at their
   // edges: seen face-on they still cover the section, and nothing beside it.
   EXPECT_EQ(relief_stray, 0u);
-  EXPECT_GE(relief_wall, section - section / 50);
+  EXPECT_LE(relief_bare, section / 500);
+  EXPECT_GE(relief_wall, section - section / 20);
 }
 
 /// The sphere in a finer cage (6³ cubes), where many faces lie wholly inside it.
@@ -364,6 +374,129 @@ TEST(Render, TessellatedReliefWithinTheClearanceNeverPokesThroughTheOutside) {
   const std::size_t poking = differing_pixels(interior_walls_image(40.0, 12.0f), no_walls);
   std::printf("relief at 40× the clearance: %zu pixels poke through\n", poking);
   EXPECT_GT(poking, 100u) << "relief far beyond the clearance should show through the surface";
+}
+
+/// Differing pixels between two images, and how many of them are specks: connected
+/// (8-neighbour) groups of at most 2 differing pixels.
+struct Specks {
+  std::size_t differing = 0, specks = 0;
+};
+Specks count_specks(const formats::Image& a, const formats::Image& b) {
+  const int w = a.width, h = a.height;
+  std::vector<int> differs(static_cast<std::size_t>(w) * h, 0);
+  Specks out;
+  for (std::size_t i = 0; i < differs.size(); ++i) {
+    differs[i] = std::equal(&a.rgba[4 * i], &a.rgba[4 * i] + 3, &b.rgba[4 * i]) ? 0 : 1;
+    out.differing += static_cast<std::size_t>(differs[i]);
+  }
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (differs[static_cast<std::size_t>(y) * w + x] != 1) continue;
+      std::vector<std::pair<int, int>> group{{x, y}};
+      differs[static_cast<std::size_t>(y) * w + x] = 2;
+      for (std::size_t k = 0; k < group.size() && group.size() <= 2; ++k) {
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int qx = group[k].first + dx, qy = group[k].second + dy;
+            if (qx < 0 || qy < 0 || qx >= w || qy >= h || differs[static_cast<std::size_t>(qy) * w + qx] != 1) continue;
+            differs[static_cast<std::size_t>(qy) * w + qx] = 2;
+            group.emplace_back(qx, qy);
+          }
+        }
+      }
+      if (group.size() <= 2) out.specks += group.size();
+    }
+  }
+  return out;
+}
+
+/// The fine sphere drawn at rest from `direction`, `size` pixels square: either whole
+/// (`split` false: its own tets, no face opened) or with every tet on its own copies of
+/// its nodes, at the same positions, and every shared face opened as a wall.
+formats::Image split_sphere_image(bool split, const render::Vec3f& direction, int size, render::Backend backend) {
+  static const FineSphere s;
+  const TetMesh& cage = s.cage;
+  std::vector<float> positions;
+  std::vector<std::uint32_t> tets;
+  std::vector<std::uint8_t> faces(4 * cage.tet_count(), 0);
+  for (TetIndex t = 0; t < cage.tet_count(); ++t) {
+    for (int i = 0; i < 4; ++i) {
+      const Index n = cage.tets(i, t);
+      if (!split) {
+        tets.push_back(static_cast<std::uint32_t>(n));
+        continue;
+      }
+      tets.push_back(static_cast<std::uint32_t>(positions.size() / 3));
+      for (int c = 0; c < 3; ++c) positions.push_back(static_cast<float>(cage.rest_positions(c, n)));
+      faces[4 * t + i] = s.bundle.faces.is_boundary(s.bundle.faces.tet_faces(i, t)) ? 0 : 2;
+    }
+  }
+  if (!split) positions.assign(cage.rest_positions.data(), cage.rest_positions.data() + cage.rest_positions.size());
+  const auto context = render::create_headless_context(backend);
+  render::Renderer renderer(size, size);
+  renderer.add_body(player::embedded_mesh(s.bundle, s.world->bodies()[0].integrator(), 1.0));
+  renderer.set_pose(0, {positions, tets, faces, {}, 1});
+  const Eigen::AlignedBox3f box(Eigen::Vector3f::Constant(0.05f), Eigen::Vector3f::Constant(0.95f));
+  renderer.set_camera(render::frame_box(box, direction, render::Vec3f::UnitZ(), 35.0f, 1.0f));
+  formats::Image image{size, size, {}};
+  renderer.render(image.rgba);
+  return image;
+}
+
+// Issue 44: a body whose faces fracture has all opened, but whose pieces have not moved,
+// must look like the whole body: its walls all lie inside the solid or meet the surface
+// exactly, so none may show through it, not even as a speck. (Before the walls were
+// kept off their seams: 90-170 differing pixels a view, all specks.)
+TEST(Render, ABodySplitAlongEveryFaceButUnmovedLooksWhole) {
+  constexpr int kLarge = 480;
+  const std::vector<render::Vec3f> directions{
+      render::Vec3f(-0.55f, 0.75f, -0.38f), render::Vec3f(0.3f, 0.2f, -0.9f), render::Vec3f(1.0f, 0.02f, 0.01f),
+      render::Vec3f(0.6f, 0.7f, 0.4f),      render::Vec3f(-0.2f, -1.0f, 0.3f), render::Vec3f(-0.7f, -0.1f, 0.7f)};
+  for (const render::Backend backend : {render::Backend::OSMesa, render::Backend::Egl}) {
+    for (std::size_t view = 0; view < directions.size(); ++view) {
+      const formats::Image whole = split_sphere_image(false, directions[view], kLarge, backend);
+      const formats::Image split = split_sphere_image(true, directions[view], kLarge, backend);
+      if (const char* keep = std::getenv("FISSURE_TEST_IMAGE_DIR"); keep != nullptr) {
+        const std::string suffix = std::to_string(view) + ".png";
+        formats::write_png(std::filesystem::path(keep) / ("split-whole-" + suffix), whole);
+        formats::write_png(std::filesystem::path(keep) / ("split-split-" + suffix), split);
+      }
+      const Specks d = count_specks(split, whole);
+      std::printf("split and unmoved, view %zu: %zu of %d pixels differ, %zu in specks\n", view, d.differing,
+                  kLarge * kLarge, d.specks);
+      EXPECT_LE(static_cast<double>(d.differing), 1e-4 * kLarge * kLarge) << "view " << view;
+      EXPECT_EQ(d.specks, 0u) << "view " << view;
+    }
+  }
+}
+
+/// Pixels darker by more than `by` (green, of 255) than all 8 of their neighbours.
+std::size_t dark_specks(const formats::Image& image, int by = 40) {
+  const auto green = [&](int x, int y) { return int(image.rgba[4 * (static_cast<std::size_t>(y) * image.width + x) + 1]); };
+  std::size_t count = 0;
+  for (int y = 1; y + 1 < image.height; ++y) {
+    for (int x = 1; x + 1 < image.width; ++x) {
+      bool isolated = true;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) isolated = isolated && ((dx == 0 && dy == 0) || green(x + dx, y + dy) - green(x, y) > by);
+      }
+      count += isolated ? 1 : 0;
+    }
+  }
+  return count;
+}
+
+// Issue 44: a smooth normal near a silhouette leans past its triangle's plane; turned
+// over by its own sign it was shaded as facing away from the light, a dark speck on the
+// contour. The whole sphere from six sides shows none.
+TEST(Render, SilhouettesHaveNoDarkSpecks) {
+  for (const render::Vec3f& direction :
+       {render::Vec3f(-0.55f, 0.75f, -0.38f), render::Vec3f(0.3f, 0.2f, -0.9f), render::Vec3f(1.0f, 0.02f, 0.01f),
+        render::Vec3f(0.6f, 0.7f, 0.4f), render::Vec3f(-0.2f, -1.0f, 0.3f), render::Vec3f(-0.7f, -0.1f, 0.7f)}) {
+    const std::size_t specks = dark_specks(split_sphere_image(false, direction, 480, render::Backend::OSMesa));
+    std::printf("dark specks: %zu\n", specks);
+    EXPECT_EQ(specks, 0u) << direction.transpose();
+  }
 }
 
 // Golden images: the renderer against itself over time, so a change that alters what a
