@@ -532,6 +532,46 @@ TEST(Render, OSMesaAndEglDrawTheSameImage) {
   EXPECT_EQ(d.failing, 0u);
 }
 
+// Issue 44 (issue 14's review): a body's arrays are checked against each other before
+// any GPU object is made; a corner naming a tet without a rest inverse, or a slot naming
+// a missing tile, would read past a buffer on the GPU.
+TEST(Render, AddBodyRejectsArraysThatDoNotMatchBeforeMakingAnything) {
+  const auto context = render::create_headless_context(render::Backend::OSMesa);
+  render::Renderer renderer(8, 8);
+  render::EmbeddedMesh one;
+  one.barycentric = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  one.tet = {0, 0, 0};
+  one.rest_normal = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+  one.rest_inverse = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  one.face_tile.assign(4, render::kWallWhole);
+  one.face_uv.assign(24, 0.0f);
+  EXPECT_EQ(renderer.add_body(one), 0u);
+  const auto expect_rejected = [&](render::EmbeddedMesh mesh, const std::string& says) {
+    try {
+      renderer.add_body(mesh);
+      ADD_FAILURE() << "accepted a mesh whose " << says << " does not match";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+  };
+  render::EmbeddedMesh past = one;
+  past.tet = {0, 0, 3};
+  expect_rejected(past, "tet");
+  render::EmbeddedMesh tile = one;
+  tile.face_tile[2] = 0;  // no tiles given
+  expect_rejected(tile, "tiles");
+  render::EmbeddedMesh slots = one;
+  slots.face_tile.resize(3);
+  expect_rejected(slots, "face slots");
+  render::EmbeddedMesh relief = one;
+  relief.face_relief = {0.1f};
+  expect_rejected(relief, "relief");
+  // Nothing half-made: the renderer still has its one body, and draws.
+  std::vector<std::uint8_t> rgba;
+  EXPECT_EQ(renderer.add_body(one), 1u);
+  EXPECT_NO_THROW(renderer.render(rgba));
+}
+
 TEST(Render, ABrokenShaderNamesItsFileAndLine) {
   const auto context = render::create_headless_context(render::Backend::OSMesa);
   const std::string source = "#version 450 core\nout vec4 color;\nvoid main() { color = no_such_thing; }\n";
