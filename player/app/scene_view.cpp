@@ -35,20 +35,11 @@ render::PlainMesh box(const Vec3& lo, const Vec3& hi) {
   return mesh;
 }
 
-/// A square of the ground plane, `half` on a side each way from the point under `centre`.
-render::PlainMesh ground_patch(const sim::Plane& plane, const Vec3& centre, double half) {
-  const Vec3 n = plane.normal.normalized();
-  const Vec3 on_plane = centre - (n.dot(centre) - plane.offset) * n;
-  const Vec3 u = n.unitOrthogonal(), v = n.cross(u);
-  render::PlainMesh mesh;
-  for (const auto& [a, b] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}) {
-    const Vec3 p = on_plane + half * (a * u + b * v);
-    mesh.positions.insert(mesh.positions.end(), {float(p.x()), float(p.y()), float(p.z())});
-    mesh.normals.insert(mesh.normals.end(), {float(n.x()), float(n.y()), float(n.z())});
-  }
-  mesh.triangles = {0, 1, 2, 0, 2, 3};
-  mesh.color = Vec3f(0.62f, 0.64f, 0.66f);
-  return mesh;
+/// A round number of metres near `length`: 1, 2 or 5 times a power of ten.
+double round_length(double length) {
+  const double power = std::pow(10.0, std::floor(std::log10(length)));
+  const double mantissa = length / power;
+  return power * (mantissa < 1.5 ? 1.0 : mantissa < 3.5 ? 2.0 : mantissa < 7.5 ? 5.0 : 10.0);
 }
 
 render::Mat4f placed(const Vec3& centre, double radius) {
@@ -221,7 +212,19 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   if (bounds.isEmpty()) bounds.extend(Vec3::Zero());
   const double size = std::max(bounds.diagonal().norm(), 1e-3);
   const sim::Environment& environment = world.environment();
-  if (environment.ground) renderer.add_plain(ground_patch(*environment.ground, bounds.center(), 25.0 * size));
+  if (environment.ground) {
+    // A checker of about a third of the bodies' size in round metres, so its cells give
+    // scale and motion; the sky turns from a light horizon (the ground fades into it) to
+    // a soft blue overhead.
+    const sim::Plane& plane = *environment.ground;
+    const double length = plane.normal.norm();
+    render::Ground ground;
+    ground.normal = (plane.normal / length).cast<float>();
+    ground.offset = static_cast<float>(plane.offset / length);
+    ground.cell = static_cast<float>(round_length(size / 3.0));
+    renderer.set_ground(ground);
+    renderer.set_sky({Vec3f(0.86f, 0.88f, 0.91f), Vec3f(0.56f, 0.68f, 0.86f)});
+  }
   for (const sim::Box& b : environment.boxes) renderer.add_plain(box(b.min, b.max));
   const render::PlainMesh sphere = render::unit_sphere(24, 48);
   for (const sim::Ball& b : environment.balls) renderer.set_transform(renderer.add_plain(sphere), placed(b.center, b.radius));

@@ -175,6 +175,7 @@ std::unique_ptr<PlainBody> upload_plain(const PlainMesh& mesh) {
   body->index_count = static_cast<GLsizei>(mesh.triangles.size());
   body->color = mesh.color;
   body->upload_bytes = interleaved.size() * sizeof(float) + mesh.triangles.size() * sizeof(std::uint32_t);
+  for (std::size_t v = 0; v + 2 < mesh.positions.size(); v += 3) body->local_bounds.extend(Vec3f(mesh.positions[v], mesh.positions[v + 1], mesh.positions[v + 2]));
   return body;
 }
 
@@ -300,6 +301,11 @@ std::unique_ptr<EmbeddedBody> upload_embedded(const EmbeddedMesh& mesh, std::siz
 
 std::size_t upload_pose(EmbeddedBody& body, const BodyPose& pose) {
   std::size_t bytes = body.nodes.upload(pose.positions.data(), pose.positions.size_bytes());
+  body.bounds.setEmpty();
+  for (std::size_t n = 0; n + 2 < pose.positions.size(); n += 3) {
+    const Vec3f x(pose.positions[n], pose.positions[n + 1], pose.positions[n + 2]);
+    if (x.allFinite()) body.bounds.extend(x);
+  }
   if (pose.topology_version != body.topology_version) {
     bytes += body.tets.upload(pose.tets.data(), pose.tets.size_bytes());
     // The walls: the opened slots that show solid (fracture changes only connectivity,

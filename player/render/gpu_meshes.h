@@ -9,6 +9,8 @@
 #include <memory>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "player/render/gpu_buffer.h"
 #include "player/render/renderer.h"
 
@@ -27,6 +29,7 @@ struct EmbeddedBody {
   GlName vertex_array{GlName::Kind::VertexArray};
   GLsizei corners = 0;
   Vec3f color, interior_color;
+  Eigen::AlignedBox3f bounds;  ///< of the posed nodes, for the shadow map
   StorageBuffer nodes, tets, rest_inverse;
   std::uint64_t topology_version = ~std::uint64_t{0};
   bool posed = false, visible = true;
@@ -60,6 +63,7 @@ struct PlainBody {
   Mat4f transform = Mat4f::Identity();
   bool visible = true;
   std::size_t upload_bytes = 0;  ///< what making it sent to the GPU
+  Eigen::AlignedBox3f local_bounds;  ///< of its vertices, before the transform
 };
 
 /// Checks every array of `mesh` against the others, then makes its GPU objects (nothing

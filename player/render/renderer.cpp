@@ -5,12 +5,14 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <optional>
 #include <string>
 
 #include "common/error.h"
 #include "player/render/camera_math.h"
 #include "player/render/gpu_buffer.h"
 #include "player/render/gpu_meshes.h"
+#include "player/render/ground.h"
 #include "player/render/shader_program.h"
 #include "player/render/shapes.h"
 
@@ -42,7 +44,10 @@ struct Renderer::Impl {
   std::vector<std::unique_ptr<PlainBody>> plains;
   Camera camera;
   Light light;
-  Vec3f background = Vec3f(0.93f, 0.94f, 0.96f);
+  Sky sky;
+  std::optional<Ground> ground;
+  bool shadows = true;
+  std::unique_ptr<GroundPass> ground_pass;  ///< made when a ground is first set
   RenderStats stats;
   std::size_t pending_upload = 0;
 
@@ -244,7 +249,13 @@ Vec3f replication_color(std::uint32_t replicas) {
 }
 void Renderer::set_camera(const Camera& camera) { m_impl->camera = camera; }
 void Renderer::set_light(const Light& light) { m_impl->light = light; }
-void Renderer::set_background(const Vec3f& color) { m_impl->background = color; }
+void Renderer::set_background(const Vec3f& color) { m_impl->sky = {color, color}; }
+void Renderer::set_sky(const Sky& sky) { m_impl->sky = sky; }
+void Renderer::set_ground(const Ground& ground) {
+  if (!m_impl->ground_pass) m_impl->ground_pass = std::make_unique<GroundPass>();
+  m_impl->ground = ground;
+}
+void Renderer::set_shadows(bool enabled) { m_impl->shadows = enabled; }
 const RenderStats& Renderer::last_stats() const { return m_impl->stats; }
 
 void Renderer::resize(int width, int height) {
@@ -255,17 +266,24 @@ void Renderer::resize(int width, int height) {
 void Renderer::draw() {
   const auto start = std::chrono::steady_clock::now();
   Impl& r = *m_impl;
-  glBindFramebuffer(GL_FRAMEBUFFER, r.framebuffer.get());
-  glViewport(0, 0, r.width, r.height);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LEQUAL);
   glDisable(GL_CULL_FACE);
   glDisable(GL_BLEND);
   glDisable(GL_SCISSOR_TEST);
-  glClearColor(r.background.x(), r.background.y(), r.background.z(), 1.0f);
+  const bool shadows = r.ground && r.shadows;
+  if (shadows) r.ground_pass->render_shadow_map(r.bodies, r.plains, r.light, r.camera, r.height);
+  glBindFramebuffer(GL_FRAMEBUFFER, r.framebuffer.get());
+  glViewport(0, 0, r.width, r.height);
+  glClearColor(r.sky.horizon.x(), r.sky.horizon.y(), r.sky.horizon.z(), 1.0f);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   const Mat4f view_projection =
       perspective(r.camera, static_cast<float>(r.width) / static_cast<float>(r.height)) * look_at(r.camera);
+  if (r.sky.zenith != r.sky.horizon) {
+    if (!r.ground_pass) r.ground_pass = std::make_unique<GroundPass>();
+    r.ground_pass->draw_sky(view_projection, r.ground ? r.ground->normal : r.camera.up, r.sky);
+  }
+  if (r.ground) r.ground_pass->draw_ground(view_projection, r.camera, r.light, *r.ground, r.sky, shadows);
   r.draw_plains(view_projection);
   r.draw_bodies(view_projection);
   r.draw_walls(view_projection);

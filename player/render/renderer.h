@@ -44,6 +44,22 @@ struct Light {
   float ambient = 0.25f;
 };
 
+/// The ground plane normal·x = offset, drawn to the horizon with a faint checker of
+/// `cell` metres, receiving the shadows of bodies and plain meshes.
+struct Ground {
+  Vec3f normal = Vec3f::UnitZ();
+  float offset = 0.0f;
+  float cell = 0.1f;  ///< checker cell side [m]
+  Vec3f color = Vec3f(0.60f, 0.58f, 0.54f);
+};
+
+/// The background: the horizon's colour at and below the horizon (the ground fades into
+/// it), turning to the zenith's overhead; both the same: a flat background.
+struct Sky {
+  Vec3f horizon = Vec3f(0.93f, 0.94f, 0.96f);
+  Vec3f zenith = Vec3f(0.93f, 0.94f, 0.96f);
+};
+
 /// What a tet face shows when fracture opens it (thesis V.B), one per (tet, local face).
 inline constexpr std::int32_t kWallWhole = -1;  ///< the face lies inside the solid: drawn whole
 inline constexpr std::int32_t kWallNone = -2;   ///< the face lies outside the solid: never drawn
@@ -161,7 +177,14 @@ class Renderer {
 
   void set_camera(const Camera& camera);
   void set_light(const Light& light);
+  /// A flat background (set_sky with both colours `color`).
   void set_background(const Vec3f& color);
+  void set_sky(const Sky& sky);
+  /// The ground (none by default), and whether bodies and plain meshes cast shadows on
+  /// it (on by default; a shadow map fitted to them each frame, sized to their size on
+  /// screen).
+  void set_ground(const Ground& ground);
+  void set_shadows(bool enabled);
 
   /// Draws everything and reads the image back into `rgba`: width × height × 4 bytes,
   /// top row first.

@@ -14,6 +14,7 @@
 #include "common/error.h"
 #include "formats/image.h"
 #include "player/app/scene_view.h"
+#include "player/render/camera_math.h"
 #include "player/render/context.h"
 #include "player/render/shapes.h"
 #include "player/render/shader_program.h"
@@ -522,6 +523,92 @@ TEST(Render, TheSphereAtRestAndBentMatchesItsGoldenImages) {
   Matrix3Xd bent = sphere().cage.rest_positions;
   for (Eigen::Index n = 0; n < bent.cols(); ++n) bent(2, n) += 0.3 * std::pow(bent(0, n) - 0.5, 2);
   expect_golden(render_both(*sphere().world(bent)).embedded, "sphere-bent");
+}
+
+/// The sphere hanging 0.3 m over a ground (z = -0.2), drawn by the player's scene view
+/// (its ground, sky and light), from a camera that sees the horizon.
+struct GroundScene {
+  formats::Image shadowed{kSize, kSize, {}}, unshadowed{kSize, kSize, {}};
+  render::Camera camera;
+  render::Light light;
+};
+GroundScene render_over_ground(render::Backend backend = render::Backend::OSMesa) {
+  sim::Environment environment;
+  environment.ground = sim::Plane{Vec3::UnitZ(), -0.2, {}};
+  sim::WorldSettings settings;
+  settings.step.gravity.setZero();
+  settings.collisions = false;
+  const sim::World world(std::vector<sim::BodyDescription>{testing::describe("sphere", sphere().cage, sim::Material{})},
+                         environment, std::vector<sim::Projectile>{}, settings);
+  const auto context = render::create_headless_context(backend);
+  render::Renderer renderer(kSize, kSize);
+  const std::vector<player::BodyAssets> assets{{"sphere.h5", sphere().bundle, 1.0, {}, {}}};
+  player::SceneView view(world, assets, renderer);
+  GroundScene out;
+  out.camera.eye = Vec3f(0.5f, -2.6f, 0.8f);
+  out.camera.target = Vec3f(0.5f, 0.5f, 0.45f);
+  out.camera.far_plane = 60.0f;
+  renderer.set_camera(out.camera);
+  out.light.towards = Vec3f(0.3f, 0.2f, 1.0f).normalized();
+  renderer.set_light(out.light);
+  renderer.render(out.shadowed.rgba);
+  renderer.set_shadows(false);
+  renderer.render(out.unshadowed.rgba);
+  if (const char* keep = std::getenv("FISSURE_TEST_IMAGE_DIR"); keep != nullptr) {
+    formats::write_png(std::filesystem::path(keep) / "ground-shadowed.png", out.shadowed);
+    formats::write_png(std::filesystem::path(keep) / "ground-unshadowed.png", out.unshadowed);
+  }
+  return out;
+}
+
+/// Where world point `p` lands in an image of `camera`, in pixels (top row 0).
+Eigen::Vector2f pixel_of(const render::Camera& camera, const Vec3f& p) {
+  const Eigen::Vector4f clip = render::perspective(camera, 1.0f) * render::look_at(camera) * p.homogeneous();
+  return {(0.5f * clip.x() / clip.w() + 0.5f) * kSize, (0.5f - 0.5f * clip.y() / clip.w()) * kSize};
+}
+
+int green_at(const formats::Image& image, const Eigen::Vector2f& pixel) {
+  const int x = std::clamp(static_cast<int>(pixel.x()), 0, kSize - 1), y = std::clamp(static_cast<int>(pixel.y()), 0, kSize - 1);
+  return image.rgba[4 * (static_cast<std::size_t>(y) * kSize + x) + 1];
+}
+
+// Issue 44: the ground reads as ground (a checker in world units, fading into a sky
+// that turns blue overhead) and the body's shadow falls on it where the light puts it.
+TEST(Render, TheGroundHasACheckerASkyAndTheBodysShadowWhereTheLightPutsIt) {
+  const GroundScene scene = render_over_ground();
+  // The shadow: the sphere's centre cast along the light onto the ground is darker with
+  // shadows than without; a ground point as far on the other side is not.
+  const Vec3f centre(0.5f, 0.5f, 0.5f), towards = scene.light.towards;
+  const Vec3f under = centre - (centre.z() + 0.2f) / towards.z() * towards;
+  const Vec3f away = under + Vec3f(0.0f, -0.9f, 0.0f);
+  const Eigen::Vector2f in_shadow = pixel_of(scene.camera, under), in_light = pixel_of(scene.camera, away);
+  EXPECT_LT(green_at(scene.shadowed, in_shadow), 0.75 * green_at(scene.unshadowed, in_shadow)) << in_shadow.transpose();
+  EXPECT_EQ(green_at(scene.shadowed, in_light), green_at(scene.unshadowed, in_light)) << in_light.transpose();
+  std::size_t darker = 0, brighter = 0;
+  for (std::size_t i = 0; i < scene.shadowed.rgba.size(); i += 4) {
+    darker += scene.shadowed.rgba[i + 1] + 8 < scene.unshadowed.rgba[i + 1] ? 1 : 0;
+    brighter += scene.shadowed.rgba[i + 1] > scene.unshadowed.rgba[i + 1] ? 1 : 0;
+  }
+  EXPECT_GT(darker, static_cast<std::size_t>(kSize * kSize / 100)) << "the shadow should cover some of the ground";
+  EXPECT_EQ(brighter, 0u) << "a shadow only takes light away";
+  // The checker (cells of 0.5 m here): along the ground in view, x in [-0.1, 1.1], the
+  // tone changes at x = 0, 0.5 and 1.
+  int changes = 0;
+  for (float x = -0.125f; x < 1.1f; x += 0.05f) {
+    const int a = green_at(scene.unshadowed, pixel_of(scene.camera, Vec3f(x, -0.4f, -0.2f)));
+    const int b = green_at(scene.unshadowed, pixel_of(scene.camera, Vec3f(x + 0.05f, -0.4f, -0.2f)));
+    changes += std::abs(a - b) > 3 ? 1 : 0;
+  }
+  EXPECT_EQ(changes, 3) << "the ground should show its checker";
+  // The sky: bluer at the top of the image than at the horizon (whose blue exceeds its
+  // red by 13 of 255).
+  const std::uint8_t* top = &scene.shadowed.rgba[4 * (kSize / 2)];
+  EXPECT_GT(int(top[2]) - int(top[0]), 20) << "the sky above the horizon should turn blue";
+  expect_golden(scene.shadowed, "ground-shadow");
+  // EGL draws the same.
+  const testing::ImageDifference egl =
+      testing::compare_images(render_over_ground(render::Backend::Egl).shadowed, scene.shadowed, {.max_abs = 1, .shift = 0});
+  EXPECT_EQ(egl.failing, 0u);
 }
 
 TEST(Render, OSMesaAndEglDrawTheSameImage) {
