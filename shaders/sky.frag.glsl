@@ -3,9 +3,9 @@
 // the zenith's above it, by each pixel's view ray (so it stays level as the camera
 // tilts). The ground fades into the same horizon colour (ground.frag.glsl).
 
-in vec2 v_ndc;
+in vec4 v_near;
+in vec4 v_far;
 
-uniform mat4 inverse_view_projection;
 uniform vec3 up;  // unit, the world's
 uniform vec3 horizon;
 uniform vec3 zenith;
@@ -13,9 +13,7 @@ uniform vec3 zenith;
 out vec4 fragment_color;
 
 void main() {
-  vec4 near = inverse_view_projection * vec4(v_ndc, -1.0, 1.0);
-  vec4 far = inverse_view_projection * vec4(v_ndc, 1.0, 1.0);
-  vec3 ray = normalize(far.xyz / far.w - near.xyz / near.w);
+  vec3 ray = normalize(v_far.xyz / v_far.w - v_near.xyz / v_near.w);
   float elevation = max(dot(ray, up), 0.0);
   fragment_color = vec4(mix(horizon, zenith, smoothstep(0.0, 0.7, elevation)), 1.0);
 }

@@ -23,12 +23,13 @@ class GroundPass {
   GroundPass(const GroundPass&) = delete;
   GroundPass& operator=(const GroundPass&) = delete;
 
-  /// Renders the casters' depth as the light sees them into the shadow map, sized to
-  /// about twice their diameter on screen; leaves the map's framebuffer bound.
+  /// Renders the casters' depth as the light sees them into the shadow map, about a
+  /// texel per pixel of their diameter on screen; leaves the map's framebuffer bound.
   void render_shadow_map(const std::vector<std::unique_ptr<EmbeddedBody>>& bodies,
                          const std::vector<std::unique_ptr<PlainBody>>& plains, const Light& light, const Camera& camera,
                          int image_height);
-  /// The sky over the whole image; depth untouched.
+  /// The sky wherever nothing was drawn (call it last: it is at the far plane, depth
+  /// tested and not written).
   void draw_sky(const Mat4f& view_projection, const Vec3f& up, const Sky& sky) const;
   /// The ground, shadowed when `shadows` (after render_shadow_map in the same frame).
   void draw_ground(const Mat4f& view_projection, const Camera& camera, const Light& light, const Ground& ground,

@@ -279,16 +279,16 @@ void Renderer::draw() {
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   const Mat4f view_projection =
       perspective(r.camera, static_cast<float>(r.width) / static_cast<float>(r.height)) * look_at(r.camera);
-  if (r.sky.zenith != r.sky.horizon) {
-    if (!r.ground_pass) r.ground_pass = std::make_unique<GroundPass>();
-    r.ground_pass->draw_sky(view_projection, r.ground ? r.ground->normal : r.camera.up, r.sky);
-  }
   if (r.ground) r.ground_pass->draw_ground(view_projection, r.camera, r.light, *r.ground, r.sky, shadows);
   r.draw_plains(view_projection);
   r.draw_bodies(view_projection);
   r.draw_walls(view_projection);
   r.draw_spheres(view_projection);
   r.draw_cages(view_projection);
+  if (r.sky.zenith != r.sky.horizon) {
+    if (!r.ground_pass) r.ground_pass = std::make_unique<GroundPass>();
+    r.ground_pass->draw_sky(view_projection, r.ground ? r.ground->normal : r.camera.up, r.sky);
+  }
   const GLenum error = glGetError();
   if (error != GL_NO_ERROR) {
     throw Error("OpenGL error 0x" + std::to_string(error) + " while drawing", "this is a bug; please report it");
