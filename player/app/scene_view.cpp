@@ -1,6 +1,7 @@
 #include "player/app/scene_view.h"
 
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "common/tet_mesh.h"
@@ -263,6 +264,30 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   update(world);
 }
 
+void SceneView::fit_planes(const sim::World& world, render::Camera& camera) const {
+  // The near and far planes widen, never narrow, from the starting view's to hold every
+  // body and launched projectile as they are now: a piece or a ball that comes closer
+  // than frame 0's near plane, or goes beyond its far one, stays in the picture.
+  const Vec3f view = (camera.target - camera.eye).normalized();
+  float nearest = std::numeric_limits<float>::infinity(), farthest = 0.0f;
+  const auto include = [&](const Vec3& point, double radius) {
+    if (!point.allFinite()) return;
+    const float depth = (point.cast<float>() - camera.eye).dot(view);
+    nearest = std::min(nearest, depth - static_cast<float>(radius));
+    farthest = std::max(farthest, depth + static_cast<float>(radius));
+  };
+  for (const sim::Body& body : world.bodies()) {
+    const Matrix3Xd& x = body.integrator().positions();
+    for (Eigen::Index n = 0; n < x.cols(); ++n) include(x.col(n), 0.0);
+  }
+  for (const sim::Projectile& p : world.projectiles()) {
+    if (p.launched) include(p.position, p.radius);
+  }
+  const float distance = (camera.target - camera.eye).norm();
+  camera.near_plane = std::min(m_camera.near_plane, std::max(0.9f * nearest, 1e-3f * distance));
+  camera.far_plane = std::max(m_camera.far_plane, 1.1f * farthest);
+}
+
 void SceneView::set_camera(const render::Camera& camera) {
   m_follow = false;
   m_camera = m_current = camera;
@@ -285,6 +310,7 @@ void SceneView::update(const sim::World& world) {
     camera.eye += shift;
     camera.target += shift;
   }
+  fit_planes(world, camera);
   m_renderer.set_camera(camera);
   m_current = camera;
   for (std::size_t b = 0; b < m_bodies.size(); ++b) {

@@ -42,6 +42,9 @@ class SceneView {
   void restore_camera();
 
  private:
+  /// Widens `camera`'s near and far planes to hold what the world has now.
+  void fit_planes(const sim::World& world, render::Camera& camera) const;
+
   render::Renderer& m_renderer;
   std::vector<std::size_t> m_bodies;       ///< renderer handle per body
   std::vector<RenderFrame> m_frames;       ///< per body

@@ -611,6 +611,35 @@ TEST(Render, TheGroundHasACheckerASkyAndTheBodysShadowWhereTheLightPutsIt) {
   EXPECT_EQ(egl.failing, 0u);
 }
 
+// Issue 44 (issue 14's review): the view's near and far planes were frame 0's for the
+// whole run, so a ball (or a piece) beyond frame 0's far plane was cut away. They now
+// widen to hold every body and launched projectile.
+TEST(Render, TheCameraPlanesHoldABallLaunchedBeyondFrameZerosFarPlane) {
+  sim::WorldSettings settings;
+  settings.step.gravity.setZero();
+  settings.collisions = false;
+  const std::vector<sim::BodyDescription> bodies{testing::describe("sphere", sphere().cage, sim::Material{})};
+  const auto context = render::create_headless_context(render::Backend::OSMesa);
+  render::Renderer renderer(kSize, kSize);
+  const std::vector<player::BodyAssets> assets{{"sphere.h5", sphere().bundle, 1.0, {}, {}}};
+  const sim::World bare(bodies, sim::Environment{}, {}, settings);
+  const render::Camera start = player::SceneView(bare, assets, renderer).camera();
+  const Vec3f view = (start.target - start.eye).normalized();
+  sim::Projectile ball;
+  ball.radius = 1.0;
+  ball.position = (start.eye + 1.5f * start.far_plane * view).cast<double>();
+  ball.launch_time = 0.0;
+  sim::World world(bodies, sim::Environment{}, {ball}, settings);
+  render::Renderer second(kSize, kSize);
+  player::SceneView scene(world, assets, second);
+  world.step();
+  ASSERT_TRUE(world.projectiles()[0].launched);
+  scene.update(world);
+  const float depth = (world.projectiles()[0].position.cast<float>() - scene.camera().eye).dot(view);
+  EXPECT_GT(scene.camera().far_plane, depth + 1.0f) << "frame 0's far plane was " << start.far_plane;
+  EXPECT_LE(scene.camera().near_plane, start.near_plane);
+}
+
 TEST(Render, OSMesaAndEglDrawTheSameImage) {
   const auto world = sphere().world();
   const RenderPair osmesa = render_both(*world, render::Backend::OSMesa);
