@@ -1,15 +1,15 @@
 #pragma once
 /// The renderer (thesis chapter V; DESIGN.md, Rendering): draws the embedded render
-/// meshes from the cage's motion, plus plain meshes (ground, obstacles, projectiles),
-/// into its own framebuffer, and reads the image back. GL-free interface: the app hands
+/// meshes from the cage's motion, plain meshes (obstacles, projectiles), and the ground,
+/// sky and shadows (ground.h), into its own framebuffer, and reads the image back. GL-free interface: the app hands
 /// it float and integer spans (player/app/render_frame.h); it never sees the physics.
 ///
 /// Embedded mesh (V.A): each (triangle, tet) instance is three vertices holding their
 /// barycentric coordinates in that tet, in a static buffer uploaded once. Per frame only
-/// the node positions and the tets' deformation gradients go up (and the tet→node table
-/// when fracture changed it); the vertex shader places each vertex from its tet's
-/// nodes, the fragment shader discards what lies outside the tet (so an instance
-/// duplicated in several tets shows each tet's part once), and normals follow the
+/// the node positions go up (and the tet→node table, walls and fragments when fracture
+/// changed them); the vertex shader places each vertex from its tet's nodes, the
+/// fragment shader discards what lies outside the tet, half a pixel of slack aside (so
+/// an instance duplicated in several tets shows each tet's part once), and normals follow the
 /// deformation through the cofactor of F (F⁻ᵀ det F), F computed in the shader from the
 /// tet's nodes and its static rest inverse: exact for any affine map, shear and stretch
 /// included, where the rotation alone is not.
