@@ -23,7 +23,7 @@ class GroundPass {
   GroundPass(const GroundPass&) = delete;
   GroundPass& operator=(const GroundPass&) = delete;
 
-  /// Renders the casters' depth as the light sees them into the shadow map, about a
+  /// Renders the casters' depth as the light sees them into the shadow map, at most a
   /// texel per pixel of their diameter on screen; leaves the map's framebuffer bound.
   void render_shadow_map(const std::vector<std::unique_ptr<EmbeddedBody>>& bodies,
                          const std::vector<std::unique_ptr<PlainBody>>& plains, const Light& light, const Camera& camera,
