@@ -6,6 +6,7 @@
 #include <tbb/info.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <tuple>
@@ -167,6 +168,13 @@ int main(int argc, char** argv) {
     return view->parsed() ? view_command(view_args) : run_command(run_args);
   } catch (const Error& e) {
     std::fputs(format_error(e).c_str(), stderr);
+    return 1;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A path the system refused (too long, a folder that cannot be read, a rename that
+    // cannot be done): the user's to fix, not a bug.
+    const std::string message = e.path1().empty() ? std::string(e.what()) : e.path1().string() + ": " + e.code().message();
+    std::fputs(format_error(Error(message, "check the path: its length, and that its folders exist and can be used")).c_str(),
+               stderr);
     return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "internal error: %s\nhint: this is a bug in fissure-player; please report it with the scene\n",

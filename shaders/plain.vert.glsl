@@ -1,5 +1,6 @@
 #version 450 core
-// Plain meshes: the ground, obstacles, projectiles, and the original mesh in tests.
+// Plain meshes: obstacles, projectiles, and the original mesh in tests (the ground has
+// its own shaders: ground.vert.glsl).
 
 layout(location = 0) in vec3 position;
 layout(location = 1) in vec3 normal;

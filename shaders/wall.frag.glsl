@@ -16,6 +16,7 @@ uniform sampler2D detail_normal;  // tangent-space, 0.5 = 0
 uniform bool normal_mapping;
 uniform ivec2 tile_layout;  // texels per tile side, tiles per layer side (the renderer's TileAtlas)
 uniform vec3 base_color;
+uniform float solid_threshold;  // the least filtered distance drawn (renderer.cpp: kWallErosionTexels)
 
 out vec4 fragment_color;
 
@@ -32,8 +33,10 @@ float signed_distance(int tile, vec2 uv) {
 }
 
 void main() {
-  // 128 of 255 and above is inside (formats/bundle.h): the boundary sits at 127.5 / 255.
-  if (v_tile >= 0 && signed_distance(v_tile, v_uv) < 127.5 / 255.0) discard;
+  // 128 of 255 and above is inside (formats/bundle.h): the boundary sits at 127.5 / 255;
+  // the threshold keeps the wall a little inside it, where filtering cannot carry it
+  // past the surface it meets.
+  if (v_tile >= 0 && signed_distance(v_tile, v_uv) < solid_threshold) discard;
   vec3 normal = normalize(v_normal);
   if (normal_mapping) {
     // The detail's slope along u and v tilts the face normal (its tangent frame from the

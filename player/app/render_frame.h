@@ -1,9 +1,10 @@
 #pragma once
 /// A body's frame as the renderer takes it: plain float and integer arrays
 /// (docs/architecture.md, "The sim/render boundary": `render` takes spans; the app
-/// converts, so `sim` and `render` never include each other). Positions and deformation
-/// gradients change every step; the tet table and the per-tet face and fragment arrays
-/// only when the topology version does, so a renderer re-uploads them only then.
+/// converts, so `sim` and `render` never include each other). Positions change every
+/// step (and deformation gradients, for a caller that asks: the renderer computes its
+/// own from the positions); the tet table and the per-tet face and fragment arrays only
+/// when the topology version does, so a renderer re-uploads them only then.
 
 #include <cstdint>
 #include <limits>

@@ -61,23 +61,30 @@ void log_loaded(const formats::Scene& scene, const sim::World& world, double sec
 
 /// Frames at a fixed rate, whatever dt: before frame f the physics has taken the whole
 /// number of steps nearest f / fps (counted in steps, so rounding never drifts), and the
-/// run takes exactly `steps` steps, the same as without frames.
-RunEnd run_with_frames(RunLoop& loop, const sim::World& world, FrameOutput& images, const RunOptions& options) {
+/// run takes exactly `steps` steps, the same as without frames. A frame that cannot be
+/// written (a PNG write failing, ffmpeg dying) ends the run there: the error goes to
+/// `failure`, and the run is finished so its report can still be written.
+RunEnd run_with_frames(RunLoop& loop, const sim::World& world, FrameOutput& images, const RunOptions& options,
+                       std::optional<Error>& failure) {
   const double steps_per_frame = 1.0 / (options.images.fps * world.settings().step.dt);
   loop.start();
-  images.capture(world, 0, 0.0);
-  long taken = 0;
-  for (long f = 1; !loop.stopped(); ++f) {
-    const long target = std::llround(static_cast<double>(f) * steps_per_frame);
-    if (target > options.steps) break;
-    const auto start = Clock::now();
-    const long steps = loop.take_steps(target - taken);
-    taken += steps;
-    const double physics_ms = 1e3 * std::chrono::duration<double>(Clock::now() - start).count();
-    if (loop.stopped()) break;
-    images.capture(world, static_cast<int>(steps), physics_ms);
+  try {
+    images.capture(world, 0, 0.0);
+    long taken = 0;
+    for (long f = 1; !loop.stopped(); ++f) {
+      const long target = std::llround(static_cast<double>(f) * steps_per_frame);
+      if (target > options.steps) break;
+      const auto start = Clock::now();
+      const long steps = loop.take_steps(target - taken);
+      taken += steps;
+      const double physics_ms = 1e3 * std::chrono::duration<double>(Clock::now() - start).count();
+      if (loop.stopped()) break;
+      images.capture(world, static_cast<int>(steps), physics_ms);
+    }
+    loop.take_steps(options.steps - taken);  // what is left after the last whole frame
+  } catch (const Error& e) {
+    failure = e;
   }
-  loop.take_steps(options.steps - taken);  // what is left after the last whole frame
   return loop.finish();
 }
 
@@ -152,7 +159,9 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
   loop.add(progress);
   std::unique_ptr<FrameOutput> images;
   if (options.images.wanted()) images = std::make_unique<FrameOutput>(options.images, loaded);
-  const RunEnd end = images ? run_with_frames(loop, loaded.world, *images, options) : loop.run_steps(options.steps);
+  std::optional<Error> image_failure;
+  const RunEnd end = images ? run_with_frames(loop, loaded.world, *images, options, image_failure)
+                            : loop.run_steps(options.steps);
 
   RunRecord record{scene.file.filename().string(), {}, load_seconds, &statistics, diagnostics ? &*diagnostics : nullptr, end};
   for (const BodyAssets& a : loaded.assets) record.bundles.push_back(a.bundle_name);
@@ -162,6 +171,7 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
     std::printf("report     %s\n", options.report.string().c_str());
   }
   if (trajectory) std::printf("trajectory %s (%zu frames)\n", trajectory->path().string().c_str(), trajectory->frame_count());
+  if (image_failure) throw *image_failure;  // after the report, which holds the run up to the failed frame
   if (images) {
     images->finish();  // after the report: a failing ffmpeg must not cost the run's record
     print_images(options.images, *images);

@@ -1,6 +1,7 @@
 #include "player/app/scene_view.h"
 
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "common/tet_mesh.h"
@@ -35,20 +36,11 @@ render::PlainMesh box(const Vec3& lo, const Vec3& hi) {
   return mesh;
 }
 
-/// A square of the ground plane, `half` on a side each way from the point under `centre`.
-render::PlainMesh ground_patch(const sim::Plane& plane, const Vec3& centre, double half) {
-  const Vec3 n = plane.normal.normalized();
-  const Vec3 on_plane = centre - (n.dot(centre) - plane.offset) * n;
-  const Vec3 u = n.unitOrthogonal(), v = n.cross(u);
-  render::PlainMesh mesh;
-  for (const auto& [a, b] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}) {
-    const Vec3 p = on_plane + half * (a * u + b * v);
-    mesh.positions.insert(mesh.positions.end(), {float(p.x()), float(p.y()), float(p.z())});
-    mesh.normals.insert(mesh.normals.end(), {float(n.x()), float(n.y()), float(n.z())});
-  }
-  mesh.triangles = {0, 1, 2, 0, 2, 3};
-  mesh.color = Vec3f(0.62f, 0.64f, 0.66f);
-  return mesh;
+/// A round number of metres near `length`: 1, 2 or 5 times a power of ten.
+double round_length(double length) {
+  const double power = std::pow(10.0, std::floor(std::log10(length)));
+  const double mantissa = length / power;
+  return power * (mantissa < 1.5 ? 1.0 : mantissa < 3.5 ? 2.0 : mantissa < 7.5 ? 5.0 : 10.0);
 }
 
 render::Mat4f placed(const Vec3& centre, double radius) {
@@ -117,6 +109,7 @@ void add_wall_tables(const formats::Bundle& bundle, double scale, render::Embedd
     }
   }
   mesh.tile_resolution = static_cast<int>(w.resolution);
+  if (w.sdf_range_texels > 0.0) mesh.tile_range_texels = static_cast<float>(w.sdf_range_texels);
   mesh.tiles = w.sdf;
   // The detail repeats every quarter of the cage's mean edge, on every face alike.
   mesh.detail_resolution = static_cast<int>(w.detail_resolution);
@@ -220,7 +213,19 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   if (bounds.isEmpty()) bounds.extend(Vec3::Zero());
   const double size = std::max(bounds.diagonal().norm(), 1e-3);
   const sim::Environment& environment = world.environment();
-  if (environment.ground) renderer.add_plain(ground_patch(*environment.ground, bounds.center(), 25.0 * size));
+  if (environment.ground) {
+    // A checker of about a third of the bodies' size in round metres, so its cells give
+    // scale and motion; the sky turns from a light horizon (the ground fades into it) to
+    // a soft blue overhead.
+    const sim::Plane& plane = *environment.ground;
+    const double length = plane.normal.norm();
+    render::Ground ground;
+    ground.normal = (plane.normal / length).cast<float>();
+    ground.offset = static_cast<float>(plane.offset / length);
+    ground.cell = static_cast<float>(round_length(size / 3.0));
+    renderer.set_ground(ground);
+    renderer.set_sky({Vec3f(0.86f, 0.88f, 0.91f), Vec3f(0.56f, 0.68f, 0.86f)});
+  }
   for (const sim::Box& b : environment.boxes) renderer.add_plain(box(b.min, b.max));
   const render::PlainMesh sphere = render::unit_sphere(24, 48);
   for (const sim::Ball& b : environment.balls) renderer.set_transform(renderer.add_plain(sphere), placed(b.center, b.radius));
@@ -259,6 +264,30 @@ SceneView::SceneView(const sim::World& world, const std::vector<BodyAssets>& ass
   update(world);
 }
 
+void SceneView::fit_planes(const sim::World& world, render::Camera& camera) const {
+  // The near and far planes widen, never narrow, from the starting view's to hold every
+  // body and launched projectile as they are now: a piece or a ball that comes closer
+  // than frame 0's near plane, or goes beyond its far one, stays in the picture.
+  const Vec3f view = (camera.target - camera.eye).normalized();
+  float nearest = std::numeric_limits<float>::infinity(), farthest = 0.0f;
+  const auto include = [&](const Vec3& point, double radius) {
+    if (!point.allFinite()) return;
+    const float depth = (point.cast<float>() - camera.eye).dot(view);
+    nearest = std::min(nearest, depth - static_cast<float>(radius));
+    farthest = std::max(farthest, depth + static_cast<float>(radius));
+  };
+  for (const sim::Body& body : world.bodies()) {
+    const Matrix3Xd& x = body.integrator().positions();
+    for (Eigen::Index n = 0; n < x.cols(); ++n) include(x.col(n), 0.0);
+  }
+  for (const sim::Projectile& p : world.projectiles()) {
+    if (p.launched) include(p.position, p.radius);
+  }
+  const float distance = (camera.target - camera.eye).norm();
+  camera.near_plane = std::min(m_camera.near_plane, std::max(0.9f * nearest, 1e-3f * distance));
+  camera.far_plane = std::max(m_camera.far_plane, 1.1f * farthest);
+}
+
 void SceneView::set_camera(const render::Camera& camera) {
   m_follow = false;
   m_camera = m_current = camera;
@@ -281,6 +310,7 @@ void SceneView::update(const sim::World& world) {
     camera.eye += shift;
     camera.target += shift;
   }
+  fit_planes(world, camera);
   m_renderer.set_camera(camera);
   m_current = camera;
   for (std::size_t b = 0; b < m_bodies.size(); ++b) {

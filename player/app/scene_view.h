@@ -31,7 +31,8 @@ class SceneView {
             const std::optional<formats::SceneCamera>& camera = {});
 
   /// Poses every body and projectile as the world is now (the renderer counts the bytes
-  /// this uploads: positions, gradients, and tets only when fracture changed them).
+  /// this uploads: positions, and tets only when fracture changed them), and widens the
+  /// camera's near and far planes to hold them.
   void update(const sim::World& world);
 
   /// The camera the last update() placed.
@@ -42,6 +43,9 @@ class SceneView {
   void restore_camera();
 
  private:
+  /// Widens `camera`'s near and far planes to hold what the world has now.
+  void fit_planes(const sim::World& world, render::Camera& camera) const;
+
   render::Renderer& m_renderer;
   std::vector<std::size_t> m_bodies;       ///< renderer handle per body
   std::vector<RenderFrame> m_frames;       ///< per body

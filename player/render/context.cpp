@@ -33,7 +33,13 @@ class OSMesaBackend : public Context {
       throw Error("OSMesa could not create an OpenGL 4.5 core context",
                   "install libosmesa6 (Mesa ≥ 20), or use --backend egl");
     }
-    make_current();
+    // A constructor that throws runs no destructor: the context is freed here.
+    try {
+      make_current();
+    } catch (...) {
+      OSMesaDestroyContext(m_context);
+      throw;
+    }
   }
   ~OSMesaBackend() override { OSMesaDestroyContext(m_context); }
   OSMesaBackend(const OSMesaBackend&) = delete;
@@ -66,16 +72,15 @@ class EglBackend : public Context {
                                          EGL_NONE};
     m_context = eglCreateContext(m_display, config, EGL_NO_CONTEXT, context_attributes);
     if (m_context == EGL_NO_CONTEXT) fail("no OpenGL 4.5 core context");
-    make_current();
+    // A constructor that throws runs no destructor: the context is released here.
+    try {
+      make_current();
+    } catch (...) {
+      release();
+      throw;
+    }
   }
-  ~EglBackend() override {
-    eglMakeCurrent(m_display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-    if (m_context != EGL_NO_CONTEXT) eglDestroyContext(m_display, m_context);
-    eglReleaseThread();
-    // No eglTerminate: the display is shared by the whole process (EGL hands
-    // every caller the same one), and terminating it lets libglvnd unload Mesa's driver,
-    // which leaves its caches unattributable to LeakSanitizer. The driver goes at exit.
-  }
+  ~EglBackend() override { release(); }
   EglBackend(const EglBackend&) = delete;
   EglBackend& operator=(const EglBackend&) = delete;
 
@@ -103,6 +108,16 @@ class EglBackend : public Context {
     display = get_platform_display(EGL_PLATFORM_DEVICE_EXT, device, nullptr);
     if (display == EGL_NO_DISPLAY || !eglInitialize(display, nullptr, nullptr)) fail("the EGL device has no display");
     return display;
+  }
+
+  void release() {
+    eglMakeCurrent(m_display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    if (m_context != EGL_NO_CONTEXT) eglDestroyContext(m_display, m_context);
+    m_context = EGL_NO_CONTEXT;
+    eglReleaseThread();
+    // No eglTerminate: the display is shared by the whole process (EGL hands
+    // every caller the same one), and terminating it lets libglvnd unload Mesa's driver,
+    // which leaves its caches unattributable to LeakSanitizer. The driver goes at exit.
   }
 
   [[noreturn]] void fail(const std::string& what) {

@@ -1,16 +1,16 @@
 #pragma once
 /// The renderer (thesis chapter V; docs/architecture.md, "The sim/render boundary"):
-/// draws the embedded render meshes from the cage's motion, plus plain meshes (ground,
-/// obstacles, projectiles), into its own framebuffer, and reads the image back. GL-free
-/// interface: the app hands it float and integer spans (player/app/render_frame.h); it
-/// never sees the physics.
+/// draws the embedded render meshes from the cage's motion, plain meshes (obstacles,
+/// projectiles), and the ground, sky and shadows (ground.h), into its own framebuffer,
+/// and reads the image back. GL-free interface: the app hands it float and integer spans
+/// (player/app/render_frame.h); it never sees the physics.
 ///
 /// Embedded mesh (V.A): each (triangle, tet) instance is three vertices holding their
 /// barycentric coordinates in that tet, in a static buffer uploaded once. Per frame only
-/// the node positions and the tets' deformation gradients go up (and the tet→node table
-/// when fracture changed it); the vertex shader places each vertex from its tet's
-/// nodes, the fragment shader discards what lies outside the tet (so an instance
-/// duplicated in several tets shows each tet's part once), and normals follow the
+/// the node positions go up (and the tet→node table, walls and fragments when fracture
+/// changed them); the vertex shader places each vertex from its tet's nodes, the
+/// fragment shader discards what lies outside the tet, half a pixel of slack aside (so
+/// an instance duplicated in several tets shows each tet's part once), and normals follow the
 /// deformation through the cofactor of F (F⁻ᵀ det F), F computed in the shader from the
 /// tet's nodes and its static rest inverse: exact for any affine map, shear and stretch
 /// included, where the rotation alone is not.
@@ -45,6 +45,22 @@ struct Light {
   float ambient = 0.25f;
 };
 
+/// The ground plane normal·x = offset, drawn to the horizon with a faint checker of
+/// `cell` metres, receiving the shadows of bodies and plain meshes.
+struct Ground {
+  Vec3f normal = Vec3f::UnitZ();
+  float offset = 0.0f;
+  float cell = 0.1f;  ///< checker cell side [m]
+  Vec3f color = Vec3f(0.60f, 0.58f, 0.54f);
+};
+
+/// The background: the horizon's colour at and below the horizon (the ground fades into
+/// it), turning to the zenith's overhead; both the same: a flat background.
+struct Sky {
+  Vec3f horizon = Vec3f(0.93f, 0.94f, 0.96f);
+  Vec3f zenith = Vec3f(0.93f, 0.94f, 0.96f);
+};
+
 /// What a tet face shows when fracture opens it (thesis V.B), one per (tet, local face).
 inline constexpr std::int32_t kWallWhole = -1;  ///< the face lies inside the solid: drawn whole
 inline constexpr std::int32_t kWallNone = -2;   ///< the face lies outside the solid: never drawn
@@ -64,6 +80,7 @@ struct EmbeddedMesh {
   std::vector<std::int32_t> face_tile;
   std::vector<float> face_uv;          ///< 6 per slot
   int tile_resolution = 0;             ///< texels per tile side
+  float tile_range_texels = 4.0f;      ///< the distance a tile's 0 and 255 stand for, in texels (Walls::sdf_range_texels)
   std::vector<std::uint8_t> tiles;     ///< tiles × resolution²: ≥ 128 inside the solid (the bake's SDF)
   Vec3f interior_color = Vec3f(0.80f, 0.45f, 0.36f);
   /// The shared detail material of the walls: a tileable tangent-space normal map
@@ -161,7 +178,14 @@ class Renderer {
 
   void set_camera(const Camera& camera);
   void set_light(const Light& light);
+  /// A flat background (set_sky with both colours `color`).
   void set_background(const Vec3f& color);
+  void set_sky(const Sky& sky);
+  /// The ground (none by default), and whether bodies and plain meshes cast shadows on
+  /// it (on by default; a shadow map fitted to them each frame, sized to their size on
+  /// screen).
+  void set_ground(const Ground& ground);
+  void set_shadows(bool enabled);
 
   /// Draws everything and reads the image back into `rgba`: width × height × 4 bytes,
   /// top row first.

@@ -11,7 +11,8 @@
 //                     (thesis Fig. 21 and Table II: replication and cost against tets)
 //   --csv DIR         also write every row to DIR/draw.csv (pipelines/tradeoffs plots it)
 // Each cage in the first table is drawn with every mesh (thesis Fig. 22: physics flat with
-// triangles). Then, unless --no-tessellation, the cost of tessellated relief against its
+// triangles). Then the cost of the ground, sky and shadows (issue 44) on the first mesh
+// and cage. Then, unless --no-tessellation, the cost of tessellated relief against its
 // level cap (every tet apart, every face open: the bunny-5k in the 987-tet cage fully
 // shattered).
 #include <algorithm>
@@ -189,6 +190,59 @@ void measure_tessellation(const SurfaceMesh& mesh, const TetMesh& cage, const Op
   }
 }
 
+/// What the surroundings cost (issue 44): the mesh in its cage drawn bare (no ground:
+/// the rows above), on a ground with its sky, and with the shadows too; the three drawn
+/// in turn each frame, so load on the machine falls on all alike.
+void measure_surroundings(const SurfaceMesh& mesh, const TetMesh& cage, const Options& o) {
+  bake::BakeOptions bake_options;
+  bake_options.collision = false;
+  const formats::Bundle bundle = bake::embed(mesh, cage, bake_options, "mesh", "cage");
+  sim::WorldSettings settings;
+  settings.collisions = false;
+  settings.step.gravity.setZero();
+  const sim::BodyDescription body = testing::describe("body", cage, sim::Material{});
+  const double floor = cage.rest_positions.row(2).minCoeff();
+  sim::Environment environment;
+  environment.ground = sim::Plane{Vec3::UnitZ(), floor - 0.05 * (cage.rest_positions.row(2).maxCoeff() - floor), {}};
+  const sim::World bare_world({body}, {}, {}, settings), ground_world({body}, environment, {}, settings);
+  const std::vector<player::BodyAssets> assets{{"mesh.h5", bundle, 1.0, {}, {}}};
+  render::Renderer bare(o.width, o.height), patch(o.width, o.height), ground(o.width, o.height);
+  const player::SceneView bare_view(bare_world, assets, bare), patch_view(bare_world, assets, patch),
+      ground_view(ground_world, assets, ground);
+  // The ground as it was drawn before issue 44: a plain square, 25 body sizes each way.
+  render::PlainMesh square;
+  const float z = static_cast<float>(environment.ground->offset), half = 25.0f * static_cast<float>(cage.rest_positions.norm());
+  square.positions = {-half, -half, z, half, -half, z, half, half, z, -half, half, z};
+  square.normals = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+  square.triangles = {0, 1, 2, 0, 2, 3};
+  patch.add_plain(square);
+  std::vector<double> bare_ms, patch_ms, ground_ms, shadow_ms;
+  std::vector<std::uint8_t> pixels;
+  for (int f = 0; f <= o.frames; ++f) {
+    bare.render(pixels);
+    patch.render(pixels);
+    ground.set_shadows(false);
+    ground.render(pixels);
+    const double unshadowed = ground.last_stats().draw_ms;
+    ground.set_shadows(true);
+    ground.render(pixels);
+    if (f == 0) continue;  // the first frame uploads the static buffers
+    bare_ms.push_back(bare.last_stats().draw_ms);
+    patch_ms.push_back(patch.last_stats().draw_ms);
+    ground_ms.push_back(unshadowed);
+    shadow_ms.push_back(ground.last_stats().draw_ms);
+  }
+  const double b = median(bare_ms);
+  std::printf("\nSurroundings, %zu triangles in %zu tets (the same frames, drawn in turn):\n\n", mesh.triangle_count(),
+              cage.tet_count());
+  std::printf("| scene | draw ms | ÷ bare |\n|---|---|---|\n");
+  std::printf("| bare (no ground) | %.1f | 1.00× |\n", b);
+  std::printf("| a plain square of ground (before issue 44) | %.1f | %.2f× |\n", median(patch_ms), median(patch_ms) / b);
+  std::printf("| ground and sky | %.1f | %.2f× |\n", median(ground_ms), median(ground_ms) / b);
+  std::printf("| ground, sky and shadows | %.1f | %.2f× |\n", median(shadow_ms), median(shadow_ms) / b);
+  std::fflush(stdout);
+}
+
 TetMesh sample_cage(const std::string& tets) {
   return formats::read_cage(std::filesystem::path(FISSURE_BENCH_DATA_DIR) / "cages" / ("bunny-5k-cage-" + tets + ".node")).mesh;
 }
@@ -230,6 +284,7 @@ int main(int argc, char** argv) {
       render::Renderer renderer(o.width, o.height);
       print_row(measure(meshes.front(), sample_cage(tets), o, renderer), csv);
     }
+    measure_surroundings(meshes.front(), cages.front().second, o);
     if (o.tessellation) measure_tessellation(meshes.front(), cages.front().second, o);
     return 0;
   } catch (const std::exception& e) {

@@ -207,6 +207,34 @@ TEST_F(PlayerCli, AFullDiskIsExitOneWithNothingLeftBehind) {
   EXPECT_TRUE(std::filesystem::is_empty(out));
 }
 
+// Issue 44 (issue 14's review): a frame that cannot be written mid-run (here a PNG past
+// the file-size limit) ends the run with exit 1 naming the file, and the report of the
+// run up to it is still written.
+TEST_F(PlayerCli, AFrameThatCannotBeWrittenStillLeavesTheReport) {
+  const auto frames = dir.path() / "frames", report = dir.path() / "report.json";
+  const auto result = testing::run_command("ulimit -f 16; exec " + std::string(FISSURE_PLAYER_EXE) + " -q run " +
+                                           quoted(scene("")) + " --steps 50 --size 640x480 --frames " + quoted(frames) +
+                                           " --report " + quoted(report));
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("frame-00000.png"), std::string::npos) << result.output;
+  EXPECT_NE(read_text(report).find("\"timings\""), std::string::npos) << result.output;
+}
+
+// Issue 44 (issue 14's review): a path the system refuses is the user's error (exit 1,
+// naming it), not an internal one; a video into a missing folder fails before the run.
+TEST_F(PlayerCli, PathErrorsAreUserErrorsAndAVideoFolderIsCheckedFirst) {
+  const std::string long_name(300, 'a');
+  std::ofstream(dir.path() / "long.toml") << "[solver]\ndt = 0.004\n\n[[object]]\nbundle = \"" << long_name << ".h5\"\n";
+  auto result = player("run " + quoted(dir.path() / "long.toml") + " --steps 1");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("File name too long"), std::string::npos) << result.output;
+  EXPECT_EQ(result.output.find("internal error"), std::string::npos) << result.output;
+  result = player("run " + quoted(scene("")) + " --steps 50 --video " + quoted(dir.path() / "missing" / "drop.mp4"));
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("does not exist"), std::string::npos) << result.output;
+  EXPECT_EQ(result.output.find("steps of"), std::string::npos) << "the run should not have started: " << result.output;
+}
+
 TEST_F(PlayerCli, ABundleThatFailsVerifyIsRefusedNamingTheSceneKeyAndTheFile) {
   formats::Bundle broken = testing::two_tet_bundle();
   broken.embedding.instance_barycentric[0](0, 0) += 0.5;  // no longer sums to one

@@ -14,6 +14,7 @@
 #include "common/error.h"
 #include "formats/image.h"
 #include "player/app/scene_view.h"
+#include "player/render/camera_math.h"
 #include "player/render/context.h"
 #include "player/render/shapes.h"
 #include "player/render/shader_program.h"
@@ -262,6 +263,7 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
   const auto at = [&](const formats::Image& image, int px, int py) { return &image.rgba[4 * (py * kSize + px)]; };
   const auto foreground = [&](int px, int py) { return !std::equal(at(open, px, py), at(open, px, py) + 3, at(open, 0, 0)); };
   std::size_t wall = 0, section = 0, stray = 0, flat_wall = 0, relit = 0, relief_wall = 0, relief_stray = 0;
+  std::size_t bare = 0, relief_bare = 0;  // section pixels a pixel or more inside its edge that no wall covers
   for (int py = 0; py < kSize; ++py) {
     for (int px = 0; px < kSize; ++px) {
       const bool is_wall = !std::equal(at(walls, px, py), at(walls, px, py) + 3, at(open, px, py));
@@ -271,29 +273,38 @@ TEST(Render, WallsShowExactlyTheSolidPartOfTheFacesFractureOpened) {
       const bool is_flat_wall = !std::equal(at(flat, px, py), at(flat, px, py) + 3, at(open, px, py));
       flat_wall += is_flat_wall ? 1 : 0;
       relit += is_wall && !std::equal(at(flat, px, py), at(flat, px, py) + 3, at(walls, px, py)) ? 1 : 0;
-      bool near_section = false;
+      bool near_section = false, inside_section = true;
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
           const int qx = std::clamp(px + dx, 0, kSize - 1), qy = std::clamp(py + dy, 0, kSize - 1);
           near_section = near_section || foreground(qx, qy);
+          inside_section = inside_section && foreground(qx, qy);
         }
       }
       stray += is_wall && !near_section ? 1 : 0;
+      bare += inside_section && !is_wall ? 1 : 0;
       const bool is_relief_wall = !std::equal(at(relief, px, py), at(relief, px, py) + 3, at(open, px, py));
       relief_wall += is_relief_wall ? 1 : 0;
       relief_stray += is_relief_wall && !near_section ? 1 : 0;
+      relief_bare += inside_section && !is_relief_wall ? 1 : 0;
     }
   }
-  std::printf("walls: %zu wall pixels over a cross-section of %zu, %zu outside it\n", wall, section, stray);
+  std::printf("walls: %zu wall pixels over a cross-section of %zu, %zu outside it, %zu inside it bare\n", wall, section,
+              stray, bare);
   EXPECT_GT(section, static_cast<std::size_t>(kSize * kSize / 10));
-  EXPECT_EQ(stray, 0u);                            // never over a face outside the solid
-  EXPECT_GE(wall, section - section / 50);          // and over (nearly) all of the section
+  EXPECT_EQ(stray, 0u);  // never over a face outside the solid
+  // And over all of the section but its edge: the walls stop half a texel inside the
+  // contour, and the surface reaches half a pixel past the cut (renderer.cpp,
+  // embedded.frag.glsl), which leaves at most a pixel's ring.
+  EXPECT_LE(bare, section / 500);
+  EXPECT_GE(wall, section - section / 20);
   EXPECT_EQ(flat_wall, wall);
   EXPECT_GT(relit, wall / 2) << "the detail normals should change most wall pixels' shading";
   // Tessellated relief moves the walls along their normals, faded to nothing at their
   // edges: seen face-on they still cover the section, and nothing beside it.
   EXPECT_EQ(relief_stray, 0u);
-  EXPECT_GE(relief_wall, section - section / 50);
+  EXPECT_LE(relief_bare, section / 500);
+  EXPECT_GE(relief_wall, section - section / 20);
 }
 
 /// The sphere in a finer cage (6³ cubes), where many faces lie wholly inside it.
@@ -366,6 +377,129 @@ TEST(Render, TessellatedReliefWithinTheClearanceNeverPokesThroughTheOutside) {
   EXPECT_GT(poking, 100u) << "relief far beyond the clearance should show through the surface";
 }
 
+/// Differing pixels between two images, and how many of them are specks: connected
+/// (8-neighbour) groups of at most 2 differing pixels.
+struct Specks {
+  std::size_t differing = 0, specks = 0;
+};
+Specks count_specks(const formats::Image& a, const formats::Image& b) {
+  const int w = a.width, h = a.height;
+  std::vector<int> differs(static_cast<std::size_t>(w) * h, 0);
+  Specks out;
+  for (std::size_t i = 0; i < differs.size(); ++i) {
+    differs[i] = std::equal(&a.rgba[4 * i], &a.rgba[4 * i] + 3, &b.rgba[4 * i]) ? 0 : 1;
+    out.differing += static_cast<std::size_t>(differs[i]);
+  }
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (differs[static_cast<std::size_t>(y) * w + x] != 1) continue;
+      std::vector<std::pair<int, int>> group{{x, y}};
+      differs[static_cast<std::size_t>(y) * w + x] = 2;
+      for (std::size_t k = 0; k < group.size() && group.size() <= 2; ++k) {
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int qx = group[k].first + dx, qy = group[k].second + dy;
+            if (qx < 0 || qy < 0 || qx >= w || qy >= h || differs[static_cast<std::size_t>(qy) * w + qx] != 1) continue;
+            differs[static_cast<std::size_t>(qy) * w + qx] = 2;
+            group.emplace_back(qx, qy);
+          }
+        }
+      }
+      if (group.size() <= 2) out.specks += group.size();
+    }
+  }
+  return out;
+}
+
+/// The fine sphere drawn at rest from `direction`, `size` pixels square: either whole
+/// (`split` false: its own tets, no face opened) or with every tet on its own copies of
+/// its nodes, at the same positions, and every shared face opened as a wall.
+formats::Image split_sphere_image(bool split, const render::Vec3f& direction, int size, render::Backend backend) {
+  static const FineSphere s;
+  const TetMesh& cage = s.cage;
+  std::vector<float> positions;
+  std::vector<std::uint32_t> tets;
+  std::vector<std::uint8_t> faces(4 * cage.tet_count(), 0);
+  for (TetIndex t = 0; t < cage.tet_count(); ++t) {
+    for (int i = 0; i < 4; ++i) {
+      const Index n = cage.tets(i, t);
+      if (!split) {
+        tets.push_back(static_cast<std::uint32_t>(n));
+        continue;
+      }
+      tets.push_back(static_cast<std::uint32_t>(positions.size() / 3));
+      for (int c = 0; c < 3; ++c) positions.push_back(static_cast<float>(cage.rest_positions(c, n)));
+      faces[4 * t + i] = s.bundle.faces.is_boundary(s.bundle.faces.tet_faces(i, t)) ? 0 : 2;
+    }
+  }
+  if (!split) positions.assign(cage.rest_positions.data(), cage.rest_positions.data() + cage.rest_positions.size());
+  const auto context = render::create_headless_context(backend);
+  render::Renderer renderer(size, size);
+  renderer.add_body(player::embedded_mesh(s.bundle, s.world->bodies()[0].integrator(), 1.0));
+  renderer.set_pose(0, {positions, tets, faces, {}, 1});
+  const Eigen::AlignedBox3f box(Eigen::Vector3f::Constant(0.05f), Eigen::Vector3f::Constant(0.95f));
+  renderer.set_camera(render::frame_box(box, direction, render::Vec3f::UnitZ(), 35.0f, 1.0f));
+  formats::Image image{size, size, {}};
+  renderer.render(image.rgba);
+  return image;
+}
+
+// Issue 44: a body whose faces fracture has all opened, but whose pieces have not moved,
+// must look like the whole body: its walls all lie inside the solid or meet the surface
+// exactly, so none may show through it, not even as a speck. (Before the walls were
+// kept off their seams: 90-170 differing pixels a view, all specks.)
+TEST(Render, ABodySplitAlongEveryFaceButUnmovedLooksWhole) {
+  constexpr int kLarge = 480;
+  const std::vector<render::Vec3f> directions{
+      render::Vec3f(-0.55f, 0.75f, -0.38f), render::Vec3f(0.3f, 0.2f, -0.9f), render::Vec3f(1.0f, 0.02f, 0.01f),
+      render::Vec3f(0.6f, 0.7f, 0.4f),      render::Vec3f(-0.2f, -1.0f, 0.3f), render::Vec3f(-0.7f, -0.1f, 0.7f)};
+  for (const render::Backend backend : {render::Backend::OSMesa, render::Backend::Egl}) {
+    for (std::size_t view = 0; view < directions.size(); ++view) {
+      const formats::Image whole = split_sphere_image(false, directions[view], kLarge, backend);
+      const formats::Image split = split_sphere_image(true, directions[view], kLarge, backend);
+      if (const char* keep = std::getenv("FISSURE_TEST_IMAGE_DIR"); keep != nullptr) {
+        const std::string suffix = std::to_string(view) + ".png";
+        formats::write_png(std::filesystem::path(keep) / ("split-whole-" + suffix), whole);
+        formats::write_png(std::filesystem::path(keep) / ("split-split-" + suffix), split);
+      }
+      const Specks d = count_specks(split, whole);
+      std::printf("split and unmoved, view %zu: %zu of %d pixels differ, %zu in specks\n", view, d.differing,
+                  kLarge * kLarge, d.specks);
+      EXPECT_LE(static_cast<double>(d.differing), 1e-4 * kLarge * kLarge) << "view " << view;
+      EXPECT_EQ(d.specks, 0u) << "view " << view;
+    }
+  }
+}
+
+/// Pixels darker by more than `by` (green, of 255) than all 8 of their neighbours.
+std::size_t dark_specks(const formats::Image& image, int by = 40) {
+  const auto green = [&](int x, int y) { return int(image.rgba[4 * (static_cast<std::size_t>(y) * image.width + x) + 1]); };
+  std::size_t count = 0;
+  for (int y = 1; y + 1 < image.height; ++y) {
+    for (int x = 1; x + 1 < image.width; ++x) {
+      bool isolated = true;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) isolated = isolated && ((dx == 0 && dy == 0) || green(x + dx, y + dy) - green(x, y) > by);
+      }
+      count += isolated ? 1 : 0;
+    }
+  }
+  return count;
+}
+
+// Issue 44: a smooth normal near a silhouette leans past its triangle's plane; turned
+// over by its own sign it was shaded as facing away from the light, a dark speck on the
+// contour. The whole sphere from six sides shows none.
+TEST(Render, SilhouettesHaveNoDarkSpecks) {
+  for (const render::Vec3f& direction :
+       {render::Vec3f(-0.55f, 0.75f, -0.38f), render::Vec3f(0.3f, 0.2f, -0.9f), render::Vec3f(1.0f, 0.02f, 0.01f),
+        render::Vec3f(0.6f, 0.7f, 0.4f), render::Vec3f(-0.2f, -1.0f, 0.3f), render::Vec3f(-0.7f, -0.1f, 0.7f)}) {
+    const std::size_t specks = dark_specks(split_sphere_image(false, direction, 480, render::Backend::OSMesa));
+    std::printf("dark specks: %zu\n", specks);
+    EXPECT_EQ(specks, 0u) << direction.transpose();
+  }
+}
+
 // Golden images: the renderer against itself over time, so a change that alters what a
 // scene looks like shows up. Compared with a tolerance (a Mesa update may move a few
 // pixels). To accept a deliberate change, rerun with FISSURE_UPDATE_GOLDEN=1 and commit
@@ -391,12 +525,167 @@ TEST(Render, TheSphereAtRestAndBentMatchesItsGoldenImages) {
   expect_golden(render_both(*sphere().world(bent)).embedded, "sphere-bent");
 }
 
+/// The sphere hanging 0.3 m over a ground (z = -0.2), drawn by the player's scene view
+/// (its ground, sky and light), from a camera that sees the horizon.
+struct GroundScene {
+  formats::Image shadowed{kSize, kSize, {}}, unshadowed{kSize, kSize, {}};
+  render::Camera camera;
+  render::Light light;
+};
+GroundScene render_over_ground(render::Backend backend = render::Backend::OSMesa) {
+  sim::Environment environment;
+  environment.ground = sim::Plane{Vec3::UnitZ(), -0.2, {}};
+  sim::WorldSettings settings;
+  settings.step.gravity.setZero();
+  settings.collisions = false;
+  const sim::World world(std::vector<sim::BodyDescription>{testing::describe("sphere", sphere().cage, sim::Material{})},
+                         environment, std::vector<sim::Projectile>{}, settings);
+  const auto context = render::create_headless_context(backend);
+  render::Renderer renderer(kSize, kSize);
+  const std::vector<player::BodyAssets> assets{{"sphere.h5", sphere().bundle, 1.0, {}, {}}};
+  player::SceneView view(world, assets, renderer);
+  GroundScene out;
+  out.camera.eye = Vec3f(0.5f, -2.6f, 0.8f);
+  out.camera.target = Vec3f(0.5f, 0.5f, 0.45f);
+  out.camera.far_plane = 60.0f;
+  renderer.set_camera(out.camera);
+  out.light.towards = Vec3f(0.3f, 0.2f, 1.0f).normalized();
+  renderer.set_light(out.light);
+  renderer.render(out.shadowed.rgba);
+  renderer.set_shadows(false);
+  renderer.render(out.unshadowed.rgba);
+  if (const char* keep = std::getenv("FISSURE_TEST_IMAGE_DIR"); keep != nullptr) {
+    formats::write_png(std::filesystem::path(keep) / "ground-shadowed.png", out.shadowed);
+    formats::write_png(std::filesystem::path(keep) / "ground-unshadowed.png", out.unshadowed);
+  }
+  return out;
+}
+
+/// Where world point `p` lands in an image of `camera`, in pixels (top row 0).
+Eigen::Vector2f pixel_of(const render::Camera& camera, const Vec3f& p) {
+  const Eigen::Vector4f clip = render::perspective(camera, 1.0f) * render::look_at(camera) * p.homogeneous();
+  return {(0.5f * clip.x() / clip.w() + 0.5f) * kSize, (0.5f - 0.5f * clip.y() / clip.w()) * kSize};
+}
+
+int green_at(const formats::Image& image, const Eigen::Vector2f& pixel) {
+  const int x = std::clamp(static_cast<int>(pixel.x()), 0, kSize - 1), y = std::clamp(static_cast<int>(pixel.y()), 0, kSize - 1);
+  return image.rgba[4 * (static_cast<std::size_t>(y) * kSize + x) + 1];
+}
+
+// Issue 44: the ground reads as ground (a checker in world units, fading into a sky
+// that turns blue overhead) and the body's shadow falls on it where the light puts it.
+TEST(Render, TheGroundHasACheckerASkyAndTheBodysShadowWhereTheLightPutsIt) {
+  const GroundScene scene = render_over_ground();
+  // The shadow: the sphere's centre cast along the light onto the ground is darker with
+  // shadows than without; a ground point as far on the other side is not.
+  const Vec3f centre(0.5f, 0.5f, 0.5f), towards = scene.light.towards;
+  const Vec3f under = centre - (centre.z() + 0.2f) / towards.z() * towards;
+  const Vec3f away = under + Vec3f(0.0f, -0.9f, 0.0f);
+  const Eigen::Vector2f in_shadow = pixel_of(scene.camera, under), in_light = pixel_of(scene.camera, away);
+  EXPECT_LT(green_at(scene.shadowed, in_shadow), 0.75 * green_at(scene.unshadowed, in_shadow)) << in_shadow.transpose();
+  EXPECT_EQ(green_at(scene.shadowed, in_light), green_at(scene.unshadowed, in_light)) << in_light.transpose();
+  std::size_t darker = 0, brighter = 0;
+  for (std::size_t i = 0; i < scene.shadowed.rgba.size(); i += 4) {
+    darker += scene.shadowed.rgba[i + 1] + 8 < scene.unshadowed.rgba[i + 1] ? 1 : 0;
+    brighter += scene.shadowed.rgba[i + 1] > scene.unshadowed.rgba[i + 1] ? 1 : 0;
+  }
+  EXPECT_GT(darker, static_cast<std::size_t>(kSize * kSize / 100)) << "the shadow should cover some of the ground";
+  EXPECT_EQ(brighter, 0u) << "a shadow only takes light away";
+  // The checker (cells of 0.5 m here): along the ground in view, x in [-0.1, 1.1], the
+  // tone changes at x = 0, 0.5 and 1.
+  int changes = 0;
+  for (float x = -0.125f; x < 1.1f; x += 0.05f) {
+    const int a = green_at(scene.unshadowed, pixel_of(scene.camera, Vec3f(x, -0.4f, -0.2f)));
+    const int b = green_at(scene.unshadowed, pixel_of(scene.camera, Vec3f(x + 0.05f, -0.4f, -0.2f)));
+    changes += std::abs(a - b) > 3 ? 1 : 0;
+  }
+  EXPECT_EQ(changes, 3) << "the ground should show its checker";
+  // The sky: bluer at the top of the image than at the horizon (whose blue exceeds its
+  // red by 13 of 255).
+  const std::uint8_t* top = &scene.shadowed.rgba[4 * (kSize / 2)];
+  EXPECT_GT(int(top[2]) - int(top[0]), 20) << "the sky above the horizon should turn blue";
+  expect_golden(scene.shadowed, "ground-shadow");
+  // EGL draws the same.
+  const testing::ImageDifference egl =
+      testing::compare_images(render_over_ground(render::Backend::Egl).shadowed, scene.shadowed, {.max_abs = 1, .shift = 0});
+  EXPECT_EQ(egl.failing, 0u);
+}
+
+// Issue 44 (issue 14's review): the view's near and far planes were frame 0's for the
+// whole run, so a ball (or a piece) beyond frame 0's far plane was cut away. They now
+// widen to hold every body and launched projectile.
+TEST(Render, TheCameraPlanesHoldABallLaunchedBeyondFrameZerosFarPlane) {
+  sim::WorldSettings settings;
+  settings.step.gravity.setZero();
+  settings.collisions = false;
+  const std::vector<sim::BodyDescription> bodies{testing::describe("sphere", sphere().cage, sim::Material{})};
+  const auto context = render::create_headless_context(render::Backend::OSMesa);
+  render::Renderer renderer(kSize, kSize);
+  const std::vector<player::BodyAssets> assets{{"sphere.h5", sphere().bundle, 1.0, {}, {}}};
+  const sim::World bare(bodies, sim::Environment{}, {}, settings);
+  const render::Camera start = player::SceneView(bare, assets, renderer).camera();
+  const Vec3f view = (start.target - start.eye).normalized();
+  sim::Projectile ball;
+  ball.radius = 1.0;
+  ball.position = (start.eye + 1.5f * start.far_plane * view).cast<double>();
+  ball.launch_time = 0.0;
+  sim::World world(bodies, sim::Environment{}, {ball}, settings);
+  render::Renderer second(kSize, kSize);
+  player::SceneView scene(world, assets, second);
+  world.step();
+  ASSERT_TRUE(world.projectiles()[0].launched);
+  scene.update(world);
+  const float depth = (world.projectiles()[0].position.cast<float>() - scene.camera().eye).dot(view);
+  EXPECT_GT(scene.camera().far_plane, depth + 1.0f) << "frame 0's far plane was " << start.far_plane;
+  EXPECT_LE(scene.camera().near_plane, start.near_plane);
+}
+
 TEST(Render, OSMesaAndEglDrawTheSameImage) {
   const auto world = sphere().world();
   const RenderPair osmesa = render_both(*world, render::Backend::OSMesa);
   const RenderPair egl = render_both(*world, render::Backend::Egl);
   const testing::ImageDifference d = testing::compare_images(egl.embedded, osmesa.embedded, {.max_abs = 1, .shift = 0});
   EXPECT_EQ(d.failing, 0u);
+}
+
+// Issue 44 (issue 14's review): a body's arrays are checked against each other before
+// any GPU object is made; a corner naming a tet without a rest inverse, or a slot naming
+// a missing tile, would read past a buffer on the GPU.
+TEST(Render, AddBodyRejectsArraysThatDoNotMatchBeforeMakingAnything) {
+  const auto context = render::create_headless_context(render::Backend::OSMesa);
+  render::Renderer renderer(8, 8);
+  render::EmbeddedMesh one;
+  one.barycentric = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  one.tet = {0, 0, 0};
+  one.rest_normal = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+  one.rest_inverse = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  one.face_tile.assign(4, render::kWallWhole);
+  one.face_uv.assign(24, 0.0f);
+  EXPECT_EQ(renderer.add_body(one), 0u);
+  const auto expect_rejected = [&](render::EmbeddedMesh mesh, const std::string& says) {
+    try {
+      renderer.add_body(mesh);
+      ADD_FAILURE() << "accepted a mesh whose " << says << " does not match";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+  };
+  render::EmbeddedMesh past = one;
+  past.tet = {0, 0, 3};
+  expect_rejected(past, "tet");
+  render::EmbeddedMesh tile = one;
+  tile.face_tile[2] = 0;  // no tiles given
+  expect_rejected(tile, "tiles");
+  render::EmbeddedMesh slots = one;
+  slots.face_tile.resize(3);
+  expect_rejected(slots, "face slots");
+  render::EmbeddedMesh relief = one;
+  relief.face_relief = {0.1f};
+  expect_rejected(relief, "relief");
+  // Nothing half-made: the renderer still has its one body, and draws.
+  std::vector<std::uint8_t> rgba;
+  EXPECT_EQ(renderer.add_body(one), 1u);
+  EXPECT_NO_THROW(renderer.render(rgba));
 }
 
 TEST(Render, ABrokenShaderNamesItsFileAndLine) {
