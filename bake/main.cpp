@@ -12,7 +12,9 @@
 #include <memory>
 #include <vector>
 
+#include "bake/auto_cage.h"
 #include "bake/bake.h"
+#include "bake/cage_quality.h"
 #include "bake/bundle_status.h"
 #include "bake/replication.h"
 #include "common/error.h"
@@ -23,6 +25,7 @@
 #include "formats/bundle_inspect.h"
 #include "formats/bundle.h"
 #include "formats/cage_io.h"
+#include "formats/cage_write.h"
 #include "formats/junit.h"
 
 namespace {
@@ -45,6 +48,8 @@ struct BakeFlags {
   double wall_budget_mib = static_cast<double>(bake::WallOptions{}.memory_budget_bytes >> 20);
   std::optional<double> sphere_radius;
   double winding_accuracy = bake::BakeOptions{}.winding_accuracy;
+  std::string tets;  ///< as typed, parsed by bake::parse_tet_count
+  std::string method = bake::AutoCageOptions{}.method;
   std::vector<CLI::Option*> options;  ///< to tell whether any was given
 
   void add_to(CLI::App* command) {
@@ -63,11 +68,19 @@ struct BakeFlags {
                             "Fast winding-number accuracy beta (larger = more exact, slower)")
             ->check(CLI::Range(1.0, 100.0))
             ->capture_default_str(),
+        command->add_option("--tets", tets, "Make the cage from the mesh, with about this many tets (±15 %), instead of --cage"),
+        command->add_option("--method", method, "How --tets makes the cage: lattice (trimmed cubes, 6 tets each)")
+            ->capture_default_str(),
     };
   }
 
   [[nodiscard]] bool any_given() const {
     return std::any_of(options.begin(), options.end(), [](const CLI::Option* o) { return o->count() > 0; });
+  }
+
+  [[nodiscard]] bool options_given(const std::string& name) const {
+    return std::any_of(options.begin(), options.end(),
+                       [&](const CLI::Option* o) { return o->count() > 0 && o->check_name(name); });
   }
 
   [[nodiscard]] bake::BakeOptions to_options() const {
@@ -91,15 +104,27 @@ struct BakeFlags {
       }
       options.spheres.radius = *sphere_radius;
     }
+    if (!tets.empty()) {
+      options.cage.tets = bake::parse_tet_count(tets);
+      options.cage.method = method;
+      bake::validate(options.cage);
+    } else if (options_given("--method")) {
+      throw Error("--method chooses how --tets makes a cage, but no --tets was given", "add --tets N, or leave --method out");
+    }
     return options;
   }
 };
 
 int run_bake(const std::string& mesh, const std::string& cage, const std::string& output, const bake::BakeOptions& options) {
+  if (cage.empty() == !options.cage.enabled()) {
+    throw Error(cage.empty() ? "bake needs a cage: give --cage FILE, or --tets N to make one from the mesh"
+                             : "--cage and --tets both give the cage; use one of them",
+                "--tets 1000 makes a lattice cage of about 1,000 tets; see fissure-bake cage --help");
+  }
   // A bad output path fails now, not after the bake.
-  check_output_path(output, bake_inputs(mesh, cage), "-o");
+  check_output_path(output, cage.empty() ? std::vector<std::filesystem::path>{mesh} : bake_inputs(mesh, cage), "-o");
   const StageTimer total("bake total");
-  formats::Bundle bundle = bake::bake_files(mesh, cage, options);
+  formats::Bundle bundle = cage.empty() ? bake::bake_with_auto_cage(mesh, options) : bake::bake_files(mesh, cage, options);
   bake::record_input_paths(bundle.metadata, mesh, cage, output);
   // The bake checks its own result before writing: a bundle on disk always verifies.
   const auto verify_start = std::chrono::steady_clock::now();
@@ -120,6 +145,41 @@ int run_bake(const std::string& mesh, const std::string& cage, const std::string
   const auto& e = bundle.embedding;
   std::printf("%s: %zu triangles in %zu tets -> %zu instances, %zu contour segments\n", output.c_str(),
               bundle.render.triangle_count(), bundle.cage.tet_count(), e.instance_count(), e.segment_count());
+  return 0;
+}
+
+struct CageArgs {
+  std::string mesh, output, tets, method = bake::AutoCageOptions{}.method;
+  bool json = false, weld = false;
+};
+
+/// `fissure-bake cage`: makes a cage from a mesh, checks that it holds every surface
+/// point exactly, writes it and says what it is like.
+int run_cage(const CageArgs& args) {
+  bake::AutoCageOptions options;
+  options.tets = bake::parse_tet_count(args.tets);
+  options.method = args.method;
+  bake::validate(options);
+  if (!formats::is_cage_path(args.output)) {
+    throw Error("-o " + args.output + ": not a cage file name",
+                "name it .node (TetGen: writes .node and .ele), .msh (Gmsh 2.2) or .mesh (MEDIT)");
+  }
+  for (const auto& file : formats::cage_files(args.output)) check_output_path(file, {args.mesh}, "-o");
+  bake::MeshImportOptions import;
+  import.weld = args.weld;
+  const bake::ImportedMesh imported = bake::import_render_mesh(args.mesh, import);
+  const bake::AutoCage cage = bake::make_cage(imported.mesh, options, args.mesh);
+  // Nothing is written unless the cage holds the whole surface, checked exactly.
+  bake::check_cage_covers(imported.mesh, cage.mesh, args.mesh, "the " + cage.method + " cage");
+  const bake::CageQuality quality = bake::measure_cage(imported.mesh, cage.mesh);
+  formats::write_cage(cage.mesh, args.output);
+  if (args.json) {
+    std::fputs(bake::quality_json(quality).c_str(), stdout);
+    return 0;
+  }
+  std::printf("%s: %zu tets (asked %zu), %s, cell %.4g, in %.2f s\n", args.output.c_str(), cage.mesh.tet_count(),
+              options.tets, cage.method.c_str(), cage.cell, cage.seconds);
+  std::fputs(bake::quality_text(quality).c_str(), stdout);
   return 0;
 }
 
@@ -224,10 +284,23 @@ int main(int argc, char** argv) {
   BakeFlags bake_flags;
   auto* bake_cmd = app.add_subcommand("bake", "Embed --mesh in --cage and write the bundle to -o");
   bake_cmd->add_option("--mesh", mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")->required();
-  bake_cmd->add_option("--cage", cage, "Tetrahedral cage: .node/.ele (TetGen), .msh (Gmsh 2.2/4.1), .mesh (MEDIT)")
-      ->required();
+  bake_cmd->add_option("--cage", cage,
+                       "Tetrahedral cage: .node/.ele (TetGen), .msh (Gmsh 2.2/4.1), .mesh (MEDIT); or --tets to make one");
   bake_cmd->add_option("-o,--output", output, "Bundle to write (.h5); written atomically")->required();
   bake_flags.add_to(bake_cmd);
+  CageArgs cage_args;
+  auto* cage_cmd = app.add_subcommand(
+      "cage", "Make a tetrahedral cage around --mesh with about --tets tets and write it to -o (.node, .msh or .mesh)");
+  cage_cmd->add_option("--mesh", cage_args.mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")
+      ->required();
+  cage_cmd->add_option("--tets", cage_args.tets, "About how many tets (the cage lands within ±15 %)")->required();
+  cage_cmd->add_option("-o,--output", cage_args.output, "Cage to write: .node (+ .ele), .msh (Gmsh 2.2), .mesh (MEDIT)")
+      ->required();
+  cage_cmd->add_option("--method", cage_args.method, "lattice: trimmed cubes, 6 Kuhn tets each (min dihedral 45°)")
+      ->capture_default_str();
+  cage_cmd->add_flag("--weld", cage_args.weld, "Merge vertices at identical positions even across normal/UV seams");
+  cage_cmd->add_flag("--json", cage_args.json, "The cage's quality as JSON on stdout");
+
   std::string bundle_path;
   bool json = false;
   auto* inspect_cmd = app.add_subcommand("inspect", "Summarise a bundle: counts, sizes, stages");
@@ -284,6 +357,7 @@ int main(int argc, char** argv) {
     if (*bake_cmd) {
       return run_bake(mesh, cage, output, bake_flags.to_options());
     }
+    if (*cage_cmd) return run_cage(cage_args);
     if (*inspect_cmd) return run_inspect(bundle_path, json);
     if (*verify_cmd) return run_verify(verify_args);
     if (*status_cmd) return run_status(status_args, status_flags);
