@@ -44,19 +44,20 @@ void surface_box(const SurfaceMesh& mesh, Vec3& lo, Vec3& hi) {
 
 /// False when the grid would have more than kMaxLatticeGridCubes cubes.
 bool make_grid(const Vec3& lo, const Vec3& hi, const LatticeGrid& spec, Grid& grid) {
+  const Vec3 size = spec.cell * spec.stretch;
   double cubes = 1.0;
-  for (int a = 0; a < 3; ++a) cubes *= std::floor((hi[a] - lo[a]) / spec.cell) + 1.0;
+  for (int a = 0; a < 3; ++a) cubes *= std::floor((hi[a] - lo[a]) / size[a]) + 1.0;
   if (!(cubes <= static_cast<double>(kMaxLatticeGridCubes))) return false;
   for (int a = 0; a < 3; ++a) {
     const double extent = hi[a] - lo[a];
-    const double slack = (std::floor(extent / spec.cell) + 1.0) * spec.cell - extent;
-    double origin = lo[a] - slack * spec.phase;
-    if (!(origin <= lo[a])) origin = lo[a] - 0.5 * spec.cell;
+    const double slack = (std::floor(extent / size[a]) + 1.0) * size[a] - extent;
+    double origin = lo[a] - slack * spec.phase[a];
+    if (!(origin <= lo[a])) origin = lo[a] - 0.5 * size[a];
     auto& x = grid.x[static_cast<std::size_t>(a)];
     x.assign(1, origin);
     // Planes until the last is at or past the box (rounding may need one more).
-    while (x.back() < hi[a]) x.push_back(origin + static_cast<double>(x.size()) * spec.cell);
-    if (x.size() < 2) x.push_back(origin + spec.cell);
+    while (x.back() < hi[a]) x.push_back(origin + static_cast<double>(x.size()) * size[a]);
+    if (x.size() < 2) x.push_back(origin + size[a]);
     grid.n[static_cast<std::size_t>(a)] = x.size() - 1;
   }
   return true;
@@ -83,6 +84,11 @@ void mark_surface_cubes(const SurfaceMesh& mesh, const Grid& grid, std::vector<s
       const Vec3 lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
       std::array<std::array<std::size_t, 2>, 3> range;
       for (std::size_t k = 0; k < 3; ++k) range[k] = cube_range(grid.x[k], lo[static_cast<Eigen::Index>(k)], hi[static_cast<Eigen::Index>(k)]);
+      if (range[0][0] == range[0][1] && range[1][0] == range[1][1] && range[2][0] == range[2][1]) {
+        // Its box lies in one closed cube (the common case for a fine mesh): so does the triangle.
+        hits[chunk].push_back(grid.cube(range[0][0], range[1][0], range[2][0]));
+        continue;
+      }
       for (std::size_t z = range[2][0]; z <= range[2][1]; ++z) {
         for (std::size_t y = range[1][0]; y <= range[1][1]; ++y) {
           for (std::size_t x = range[0][0]; x <= range[0][1]; ++x) {
@@ -264,8 +270,10 @@ LatticeGrid search_lattice_grid(const SurfaceMesh& mesh, const WindingNumberTree
   surface_box(mesh, lo, hi);
   const Vec3 extent = (hi - lo).cwiseMax(1e-6 * (hi - lo).maxCoeff());
   std::vector<Trial> trials;
-  auto attempt = [&](double cell, double phase) -> const Trial& {
-    trials.push_back({{cell, phase}, 6 * count_lattice_cubes(mesh, winding, {cell, phase})});
+  const Vec3 centred = Vec3::Constant(0.5);
+  auto attempt = [&](double cell, const Vec3& phase, const Vec3& stretch = Vec3::Ones()) -> const Trial& {
+    const LatticeGrid grid{cell, phase, stretch};
+    trials.push_back({grid, 6 * count_lattice_cubes(mesh, winding, grid)});
     return trials.back();
   };
   const auto best = [&]() {
@@ -278,12 +286,12 @@ LatticeGrid search_lattice_grid(const SurfaceMesh& mesh, const WindingNumberTree
   // the solid and cell^-2 along the surface; the slope is measured, within [1, 4].
   double cell = std::cbrt(extent.prod() * 6.0 / static_cast<double>(tets));
   double slope = 3.0;
-  const Trial* last = &attempt(cell, 0.5);
+  const Trial* last = &attempt(cell, centred);
   for (int step = 0; step < 8 && miss(last->tets, tets) > aim; ++step) {
     const double ratio = last->tets == 0 ? 8.0 : static_cast<double>(last->tets) / static_cast<double>(tets);
     const double next = cell * std::pow(ratio, 1.0 / slope);
     const Trial before = *last;
-    last = &attempt(next, 0.5);
+    last = &attempt(next, centred);
     if (before.tets > 0 && last->tets > 0 && last->tets != before.tets) {
       slope = std::clamp(-std::log(static_cast<double>(last->tets) / static_cast<double>(before.tets)) / std::log(next / cell), 1.0, 4.0);
     }
@@ -291,22 +299,35 @@ LatticeGrid search_lattice_grid(const SurfaceMesh& mesh, const WindingNumberTree
   }
   // Bisection between the finest cell that gave too few tets and the coarsest that
   // gave too many, where the secant steps brought a bracket but no count near enough.
-  for (int step = 0; step < 16 && miss(best().tets, tets) > aim; ++step) {
+  for (int step = 0; step < 10 && miss(best().tets, tets) > aim; ++step) {
     double fine = 0, coarse = std::numeric_limits<double>::infinity();
     for (const Trial& t : trials) {
-      if (t.grid.phase != 0.5) continue;
+      if (t.grid.phase != centred) continue;
       if (t.tets > tets || t.tets == 0) fine = std::max(fine, t.grid.cell);
       else coarse = std::min(coarse, t.grid.cell);
     }
     if (fine == 0 || !std::isfinite(coarse) || coarse / fine < 1.0 + 1e-9) break;
-    attempt(std::sqrt(fine * coarse), 0.5);
+    attempt(std::sqrt(fine * coarse), centred);
   }
-  // Small counts move in steps of whole cubes: other placements of the grid may land nearer.
-  for (const double phase : {0.25, 0.75, 0.125, 0.375, 0.625, 0.875}) {
-    const double relative = static_cast<double>(best().tets) / static_cast<double>(tets) - 1.0;
-    if (std::abs(relative) <= tolerance) break;
-    const double cell_best = best().grid.cell;
-    for (const double scale : {1.0, 0.97, 1.03, 0.94, 1.06}) attempt(cell_best * scale, phase);
+  // Small counts move in steps of whole cubes: other placements of the grid, axis by
+  // axis, and cells a little finer or coarser may land nearer.
+  const auto within = [&](const Trial& t) {
+    return std::abs(static_cast<double>(t.tets) / static_cast<double>(tets) - 1.0) <= tolerance;
+  };
+  const double cell_best = best().grid.cell;
+  constexpr double kPhases[3] = {0.5, 0.25, 0.75};
+  for (int combo = 1; combo < 27 && !within(best()); ++combo) {
+    const Vec3 phase(kPhases[combo % 3], kPhases[(combo / 3) % 3], kPhases[combo / 9]);
+    for (const double scale : {1.0, 0.95, 1.05, 0.9, 1.1}) {
+      if (within(attempt(cell_best * scale, phase))) break;
+    }
+  }
+  for (int combo = 1; combo < 27 && !within(best()); ++combo) {
+    const Vec3 stretch(kLatticeStretches[combo % 3], kLatticeStretches[(combo / 3) % 3], kLatticeStretches[combo / 9]);
+    if (stretch.minCoeff() == stretch.maxCoeff()) continue;  // a scaled cube: tried above
+    for (const double scale : {1.0, 0.95, 1.05}) {
+      if (within(attempt(cell_best * scale, centred, stretch))) break;
+    }
   }
   if (tries) *tries = trials.size();
   return best().grid;

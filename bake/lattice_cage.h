@@ -9,7 +9,8 @@
 ///   cube share a point (an exact test on the cube's own double corners), and the
 ///   kept cubes' tets tile exactly those cubes, so every surface point is in the cage;
 /// - quality: every tet is congruent to the Kuhn simplex of a cube, dihedral angles
-///   45°, 60° (twice) and 90° (three times): the minimum is 45° at any cell size;
+///   45° (twice), 60° and 90° (three times): the minimum is 45° at any cell size (39.2°
+///   where the search had to stretch the cells, see kLatticeStretches);
 /// - conformity: every cube uses the same diagonal, so neighbouring cubes' faces match;
 /// - one piece per connected part: cubes meeting only along an edge or at a corner are
 ///   joined by the cubes between them, so the cage is face-connected wherever the
@@ -26,12 +27,19 @@ namespace fissure::bake {
 
 class WindingNumberTree;
 
-/// Where the grid lies: cubes of edge `cell`, with `phase` (0…1) of the slack between
-/// the grid and the mesh's bounding box below the box on each axis (½: centred).
+/// Where the grid lies: cells of edge `cell` (times `stretch` per axis: 1 for cubes),
+/// with `phase` (0…1, per axis) of the slack between the grid and the mesh's bounding
+/// box below the box (½: centred).
 struct LatticeGrid {
   double cell = 0;
-  double phase = 0.5;
+  Vec3 phase = Vec3::Constant(0.5);
+  Vec3 stretch = Vec3::Ones();
 };
+
+/// The stretches the search may use where no cubic grid lands near the count (a small
+/// count of a symmetric shape moves in steps of several cubes): each axis 0.9, 1 or 1.1
+/// times the cell, so the tets' dihedral angles stay within 39.2° … 90° (45° … 90° for cubes).
+inline constexpr double kLatticeStretches[3] = {1.0, 0.9, 1.1};
 
 struct LatticeCage {
   TetMesh mesh;
@@ -55,7 +63,8 @@ LatticeCage build_lattice_cage(const SurfaceMesh& mesh, const WindingNumberTree&
 
 /// The cell size whose cage lands nearest `tets` (within `tolerance`, relative, when
 /// any does): a secant search on the log of the cell size, then bisection between the
-/// sizes that bracket the count, then other phases of the grid. Deterministic.
+/// sizes that bracket the count, then other placements of the grid, then stretched
+/// cells (small counts move in steps of whole cubes). Deterministic.
 LatticeGrid search_lattice_grid(const SurfaceMesh& mesh, const WindingNumberTree& winding, std::size_t tets,
                                 double tolerance, std::size_t* tries = nullptr);
 
