@@ -70,7 +70,8 @@ void measure_tets(const TetMesh& cage, CageQuality& q) {
     for (const double angle : dihedral_angles_deg(p[0], p[1], p[2], p[3])) {
       q.min_dihedral_deg = std::min(q.min_dihedral_deg, angle);
       q.max_dihedral_deg = std::max(q.max_dihedral_deg, angle);
-      ++q.dihedral_histogram[std::min<std::size_t>(17, static_cast<std::size_t>(std::max(0.0, angle) / 10.0))];
+      // A micro-degree up, so the lattice's exact 60° and 90° do not split between bins by rounding.
+      ++q.dihedral_histogram[std::min<std::size_t>(17, static_cast<std::size_t>(std::max(0.0, angle + 1e-6) / 10.0))];
     }
   }
   q.mean_edge = cage.tet_count() ? edges / (6.0 * static_cast<double>(cage.tet_count())) : 0.0;
