@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "bake/exact_predicates.h"
@@ -117,52 +118,62 @@ void mark_inside_cubes(const WindingNumberTree& winding, const Grid& grid, std::
   });
 }
 
+/// Union-find over the grid's cubes, for which kept cubes are face-connected.
+class CubePieces {
+ public:
+  explicit CubePieces(std::size_t cubes) : m_parent(cubes) {
+    for (std::size_t c = 0; c < cubes; ++c) m_parent[c] = static_cast<Index>(c);
+  }
+  void join(std::size_t a, std::size_t b) { m_parent[root(a)] = root(b); }
+  [[nodiscard]] bool joined(std::size_t a, std::size_t b) { return root(a) == root(b); }
+
+ private:
+  Index root(std::size_t c) { return find_root(m_parent, static_cast<Index>(c)); }
+  std::vector<Index> m_parent;
+};
+
+/// The cube at `ijk` + `d`, or nothing when that lies outside the grid.
+std::optional<std::size_t> offset_cube(const Grid& grid, const std::array<std::size_t, 3>& ijk, const std::array<int, 3>& d) {
+  std::array<std::size_t, 3> at{};
+  for (std::size_t a = 0; a < 3; ++a) {
+    const auto v = static_cast<std::ptrdiff_t>(ijk[a]) + d[a];
+    if (v < 0 || v >= static_cast<std::ptrdiff_t>(grid.n[a])) return std::nullopt;
+    at[a] = static_cast<std::size_t>(v);
+  }
+  return grid.cube(at[0], at[1], at[2]);
+}
+
 /// Joins kept cubes that meet only along an edge or at a corner through the cubes on a
 /// monotone path between them (kBridge), so that the kept cubes that touch at all form
 /// one face-connected piece. One pass in cube order: each join is recorded at once in
 /// the union-find, so later pairs of the same two pieces add nothing.
 void bridge_diagonal_neighbours(const Grid& grid, std::vector<std::uint8_t>& flags) {
-  std::vector<Index> parent(flags.size());
-  for (std::size_t c = 0; c < flags.size(); ++c) parent[c] = static_cast<Index>(c);
-  auto join = [&](std::size_t a, std::size_t b) { parent[find_root(parent, static_cast<Index>(a))] = find_root(parent, static_cast<Index>(b)); };
-  const std::array<std::size_t, 3> stride{1, grid.n[0], grid.n[0] * grid.n[1]};
+  CubePieces pieces(flags.size());
   for (std::size_t c = 0; c < flags.size(); ++c) {
     if (flags[c] == kDropped) continue;
-    const auto ijk = grid.coords(c);
-    for (std::size_t a = 0; a < 3; ++a) {
-      if (ijk[a] + 1 < grid.n[a] && flags[c + stride[a]] != kDropped) join(c, c + stride[a]);
+    for (const std::array<int, 3>& d : {std::array<int, 3>{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}) {
+      const auto next = offset_cube(grid, grid.coords(c), d);
+      if (next && flags[*next] != kDropped) pieces.join(c, *next);
     }
   }
   for (std::size_t c = 0; c < flags.size(); ++c) {
     if (flags[c] == kDropped) continue;
     const auto ijk = grid.coords(c);
-    for (int dz = -1; dz <= 1; ++dz) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-          const std::array<int, 3> d{dx, dy, dz};
-          if ((dx != 0) + (dy != 0) + (dz != 0) < 2) continue;  // itself or a face neighbour
-          std::array<std::size_t, 3> other{};
-          bool inside = true;
-          for (std::size_t a = 0; a < 3; ++a) {
-            const auto v = static_cast<std::ptrdiff_t>(ijk[a]) + d[a];
-            inside = inside && v >= 0 && v < static_cast<std::ptrdiff_t>(grid.n[a]);
-            other[a] = static_cast<std::size_t>(v);
-          }
-          if (!inside) continue;
-          const std::size_t b = grid.cube(other[0], other[1], other[2]);
-          if (flags[b] == kDropped || find_root(parent, static_cast<Index>(c)) == find_root(parent, static_cast<Index>(b))) continue;
-          // Step along x, then y, then z: every cube on the way is a face neighbour of the last.
-          std::array<std::size_t, 3> at = ijk;
-          std::size_t previous = c;
-          for (std::size_t a = 0; a < 3; ++a) {
-            if (d[a] == 0) continue;
-            at[a] = other[a];
-            const std::size_t step = grid.cube(at[0], at[1], at[2]);
-            if (flags[step] == kDropped) flags[step] = kBridge;
-            join(previous, step);
-            previous = step;
-          }
-        }
+    for (int code = 0; code < 27; ++code) {
+      const std::array<int, 3> d{code % 3 - 1, (code / 3) % 3 - 1, code / 9 - 1};
+      if ((d[0] != 0) + (d[1] != 0) + (d[2] != 0) < 2) continue;  // itself or a face neighbour
+      const auto other = offset_cube(grid, ijk, d);
+      if (!other || flags[*other] == kDropped || pieces.joined(c, *other)) continue;
+      // Step along x, then y, then z: every cube on the way is a face neighbour of the last.
+      std::array<int, 3> walked{0, 0, 0};
+      std::size_t previous = c;
+      for (std::size_t a = 0; a < 3; ++a) {
+        if (d[a] == 0) continue;
+        walked[a] = d[a];
+        const std::size_t step = *offset_cube(grid, ijk, walked);
+        if (flags[step] == kDropped) flags[step] = kBridge;
+        pieces.join(previous, step);
+        previous = step;
       }
     }
   }

@@ -183,6 +183,21 @@ int run_cage(const CageArgs& args) {
   return 0;
 }
 
+CLI::App* add_cage_command(CLI::App& app, CageArgs& args) {
+  auto* command = app.add_subcommand(
+      "cage", "Make a tetrahedral cage around --mesh with about --tets tets and write it to -o (.node, .msh or .mesh)");
+  command->add_option("--mesh", args.mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")
+      ->required();
+  command->add_option("--tets", args.tets, "About how many tets (the cage lands within ±15 %)")->required();
+  command->add_option("-o,--output", args.output, "Cage to write: .node (+ .ele), .msh (Gmsh 2.2), .mesh (MEDIT)")
+      ->required();
+  command->add_option("--method", args.method, "lattice: trimmed cubes, 6 Kuhn tets each (min dihedral 45°)")
+      ->capture_default_str();
+  command->add_flag("--weld", args.weld, "Merge vertices at identical positions even across normal/UV seams");
+  command->add_flag("--json", args.json, "The cage's quality as JSON on stdout");
+  return command;
+}
+
 int run_inspect(const std::string& path, bool json) {
   const formats::BundleSummary summary = formats::summarize_bundle(path);
   std::fputs((json ? formats::summary_json(summary) : formats::summary_text(summary)).c_str(), stdout);
@@ -289,17 +304,7 @@ int main(int argc, char** argv) {
   bake_cmd->add_option("-o,--output", output, "Bundle to write (.h5); written atomically")->required();
   bake_flags.add_to(bake_cmd);
   CageArgs cage_args;
-  auto* cage_cmd = app.add_subcommand(
-      "cage", "Make a tetrahedral cage around --mesh with about --tets tets and write it to -o (.node, .msh or .mesh)");
-  cage_cmd->add_option("--mesh", cage_args.mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")
-      ->required();
-  cage_cmd->add_option("--tets", cage_args.tets, "About how many tets (the cage lands within ±15 %)")->required();
-  cage_cmd->add_option("-o,--output", cage_args.output, "Cage to write: .node (+ .ele), .msh (Gmsh 2.2), .mesh (MEDIT)")
-      ->required();
-  cage_cmd->add_option("--method", cage_args.method, "lattice: trimmed cubes, 6 Kuhn tets each (min dihedral 45°)")
-      ->capture_default_str();
-  cage_cmd->add_flag("--weld", cage_args.weld, "Merge vertices at identical positions even across normal/UV seams");
-  cage_cmd->add_flag("--json", cage_args.json, "The cage's quality as JSON on stdout");
+  CLI::App* cage_cmd = add_cage_command(app, cage_args);
 
   std::string bundle_path;
   bool json = false;
