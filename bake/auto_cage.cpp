@@ -1,14 +1,18 @@
 #include "bake/auto_cage.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 
+#include "bake/bake.h"
 #include "bake/exact_predicates.h"
 #include "bake/lattice_cage.h"
 #include "bake/surface_orientation.h"
 #include "bake/winding_number.h"
+#include "bake/wrap_cage.h"
 #include "common/error.h"
 #include "common/log.h"
 
@@ -53,8 +57,8 @@ std::size_t parse_tet_count(const std::string& text) {
 }
 
 void validate(const AutoCageOptions& options) {
-  if (options.method != "lattice") {
-    throw Error("--method " + options.method + " is not a cage method", "use --method lattice");
+  if (options.method != "lattice" && options.method != "wrap") {
+    throw Error("--method " + options.method + " is not a cage method", "use --method lattice or --method wrap");
   }
   if (options.tets < kMinCageTets || options.tets > kMaxCageTets) {
     throw Error("--tets " + std::to_string(options.tets) + " is out of range", range_hint());
@@ -62,40 +66,136 @@ void validate(const AutoCageOptions& options) {
   if (!(options.tolerance > 0.0 && options.tolerance < 1.0)) throw Error("the cage count tolerance must lie in (0, 1)");
 }
 
-AutoCage make_cage(const SurfaceMesh& input, const AutoCageOptions& options, const std::string& mesh_name,
-                   double winding_accuracy) {
-  validate(options);
-  require_solid_extent(input, mesh_name);
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+bool lands(std::size_t made, const AutoCageOptions& options) {
+  return made > 0 && std::abs(static_cast<double>(made) / static_cast<double>(options.tets) - 1.0) <= options.tolerance;
+}
+
+[[noreturn]] void throw_missed(const std::string& mesh_name, const AutoCageOptions& options, std::size_t nearest,
+                               double cell, std::size_t tries) {
+  char detail[160];
+  std::snprintf(detail, sizeof detail, "the nearest %s cage has %zu tets (cell %.4g), after %zu tries", options.method.c_str(),
+                nearest, cell, tries);
+  throw Error(mesh_name + ": no " + options.method + " cage lands within ±" +
+                  std::to_string(static_cast<int>(options.tolerance * 100 + 0.5)) + " % of --tets " +
+                  std::to_string(options.tets) + ": " + detail,
+              nearest == 0 ? "ask for fewer tets"
+              : nearest > options.tets && options.method == "wrap"
+                  ? "the wrap's envelope needs about " + std::to_string(nearest) +
+                        " tets at least; ask for more, or use --method lattice for fewer"
+                  : "ask for " + std::to_string(nearest) + " tets, or a larger count");
+}
+
+AutoCage lattice_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, const std::string& mesh_name,
+                      double winding_accuracy) {
   const auto start = std::chrono::steady_clock::now();
-  // Inside/outside must agree with the bake's, which orients the surface first.
-  SurfaceMesh mesh = input;
-  orient_surface(mesh);
   const WindingNumberTree winding(mesh, winding_accuracy);
   AutoCage cage;
   cage.method = options.method;
   const LatticeGrid grid = search_lattice_grid(mesh, winding, options.tets, options.tolerance, &cage.tries);
   LatticeCage lattice = build_lattice_cage(mesh, winding, grid);
-  const double made = static_cast<double>(lattice.mesh.tet_count());
-  const double asked = static_cast<double>(options.tets);
-  if (lattice.mesh.tet_count() == 0 || std::abs(made / asked - 1.0) > options.tolerance) {
-    char detail[160];
-    std::snprintf(detail, sizeof detail, "the nearest lattice has %zu tets (cell %.4g), after %zu tries",
-                  lattice.mesh.tet_count(), grid.cell, cage.tries);
-    throw Error(mesh_name + ": no lattice cage lands within ±" + std::to_string(static_cast<int>(options.tolerance * 100 + 0.5)) +
-                    " % of --tets " + std::to_string(options.tets) + ": " + detail,
-                lattice.mesh.tet_count() == 0 ? "ask for fewer tets"
-                                              : "ask for " + std::to_string(lattice.mesh.tet_count()) + " tets, or a larger count");
-  }
+  if (!lands(lattice.mesh.tet_count(), options)) throw_missed(mesh_name, options, lattice.mesh.tet_count(), grid.cell, cage.tries);
   cage.mesh = std::move(lattice.mesh);
   cage.cell = grid.cell;
   cage.bridge_cubes = lattice.bridge_cubes;
-  cage.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  cage.seconds = seconds_since(start);
   char line[200];
   std::snprintf(line, sizeof line, "  cage: lattice of %zu cubes (cell %.4g, %zu joining), %zu tets, %zu nodes, %zu tries (%.3f s)",
                 lattice.cubes, grid.cell, lattice.bridge_cubes, cage.mesh.tet_count(), cage.mesh.node_count(), cage.tries,
                 cage.seconds);
   log_info(line);
   return cage;
+}
+
+/// The wrap's parameters. The envelope comes from the first estimate of the cell,
+/// `estimate` (so the search cannot inflate the envelope with the cell and find the
+/// count on a balloon: a coarser envelope needing as many tets as a finer one): gaps
+/// wider than about two cells stay open, and it stands half a cell out (times `grow`
+/// after a miss). Mesh_3's boundary keeps within an eighth of the searched `cell` of
+/// it, and at most half the clearance, so the cage cannot cut into the surface by more
+/// than Mesh_3's approximation (checked exactly afterwards).
+WrapParameters wrap_parameters(double estimate, double cell, double grow) {
+  const double offset = grow * estimate / 2.0;
+  return {2.0 * estimate, offset, std::min(cell / 8.0, offset / 2.0)};
+}
+
+/// The cell size at which the wrap's mesh lands nearest the count: secant steps on
+/// log(count) against log(cell) (Mesh_3's count falls like cell^-3), unpolished meshes.
+double search_wrap_cell(const SurfaceMesh& mesh, double estimate, double grow, const AutoCageOptions& options,
+                        std::size_t& tries) {
+  double cell = estimate;
+  const double asked = static_cast<double>(options.tets);
+  double best_cell = cell, best_miss = std::numeric_limits<double>::infinity(), slope = 3.0;
+  double last_cell = 0, last_count = 0;
+  for (int step = 0; step < 8; ++step) {
+    const double count = static_cast<double>(SurfaceWrap(mesh, wrap_parameters(estimate, cell, grow)).mesh_at(cell, false).tet_count());
+    ++tries;
+    log_debug("wrap: cell " + std::to_string(cell) + ": " + std::to_string(static_cast<std::size_t>(count)) + " tets");
+    const double miss = count > 0 ? std::abs(std::log(count / asked)) : std::numeric_limits<double>::infinity();
+    if (miss < best_miss) {
+      best_miss = miss;
+      best_cell = cell;
+    }
+    if (miss < std::log1p(0.05) || count == 0) break;
+    if (last_count > 0 && count != last_count) {
+      slope = std::clamp(-std::log(count / last_count) / std::log(cell / last_cell), 1.5, 4.0);
+    }
+    last_cell = cell;
+    last_count = count;
+    cell *= std::pow(count / asked, 1.0 / slope);
+  }
+  return best_cell;
+}
+
+AutoCage wrap_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, const std::string& mesh_name) {
+  const auto start = std::chrono::steady_clock::now();
+  Vec3 lo = mesh.positions.rowwise().minCoeff(), hi = mesh.positions.rowwise().maxCoeff();
+  // A first cell from the box: Mesh_3's tets of circumradius r hold about r³/2 each,
+  // and a solid fills roughly a third of its box.
+  const double estimate = std::cbrt((hi - lo).prod() / 3.0 / (0.5 * static_cast<double>(options.tets)));
+  AutoCage cage;
+  cage.method = options.method;
+  WrapParameters parameters;
+  double cell = estimate;
+  for (double grow = 1.0;; grow *= 1.5) {
+    // A larger clearance makes a larger envelope: the cell is searched again for it.
+    cell = search_wrap_cell(mesh, estimate, grow, options, cage.tries);
+    parameters = wrap_parameters(estimate, cell, grow);
+    cage.mesh = SurfaceWrap(mesh, parameters).mesh_at(cell, true);
+    cage.cell = cell;
+    if (!lands(cage.mesh.tet_count(), options)) throw_missed(mesh_name, options, cage.mesh.tet_count(), cell, cage.tries);
+    try {
+      check_cage_covers(mesh, cage.mesh, mesh_name, "the wrap cage");
+      break;
+    } catch (const Error& e) {
+      if (grow > 2.0) throw;
+      log_warning(std::string("the wrap cage missed part of the surface; growing its clearance and trying again: ") + e.what());
+    }
+  }
+  cage.seconds = seconds_since(start);
+  char line[200];
+  std::snprintf(line, sizeof line, "  cage: wrap (alpha %.4g, offset %.4g, cell %.4g), %zu tets, %zu nodes, %zu tries (%.3f s)",
+                parameters.alpha, parameters.offset, cell, cage.mesh.tet_count(), cage.mesh.node_count(), cage.tries,
+                cage.seconds);
+  log_info(line);
+  return cage;
+}
+
+}  // namespace
+
+AutoCage make_cage(const SurfaceMesh& input, const AutoCageOptions& options, const std::string& mesh_name,
+                   double winding_accuracy) {
+  validate(options);
+  require_solid_extent(input, mesh_name);
+  // Inside/outside must agree with the bake's, which orients the surface first.
+  SurfaceMesh mesh = input;
+  orient_surface(mesh);
+  return options.method == "wrap" ? wrap_cage(mesh, options, mesh_name) : lattice_cage(mesh, options, mesh_name, winding_accuracy);
 }
 
 }  // namespace fissure::bake

@@ -20,7 +20,7 @@ inline constexpr std::size_t kMinCageTets = 6;
 inline constexpr std::size_t kMaxCageTets = 1'000'000;
 
 struct AutoCageOptions {
-  std::string method = "lattice";  ///< "lattice" (the only one so far)
+  std::string method = "lattice";  ///< "lattice" (lattice_cage.h) or "wrap" (wrap_cage.h)
   std::size_t tets = 0;            ///< asked; 0: no automatic cage (a cage file is given)
   double tolerance = 0.15;         ///< the made count lies within ±tolerance·tets
   [[nodiscard]] bool enabled() const { return tets > 0; }
@@ -29,7 +29,7 @@ struct AutoCageOptions {
 struct AutoCage {
   TetMesh mesh;
   std::string method;
-  double cell = 0;           ///< lattice: the cube edge length [m]
+  double cell = 0;           ///< lattice: the cube edge; wrap: Mesh_3's cell size [m]
   std::size_t tries = 0;     ///< cell sizes tried by the search
   std::size_t bridge_cubes = 0;
   double seconds = 0;
@@ -45,7 +45,9 @@ void validate(const AutoCageOptions& options);
 /// Makes a cage of about `options.tets` tets around `mesh` (oriented first, as the bake
 /// orients it, so inside/outside agrees). Throws fissure::Error naming `mesh_name` for a
 /// mesh with no area, a flat mesh, or a count that cannot be met within the tolerance.
-/// Containment is by construction; the bake checks it again exactly (check_cage_covers).
+/// Lattice: containment by construction (the bake checks it again, check_cage_covers);
+/// wrap: checked here, and a wrap that misses part of the surface is remade with 1.5×
+/// then 2.25× the clearance before the call fails.
 AutoCage make_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, const std::string& mesh_name,
                    double winding_accuracy = 3.0);
 

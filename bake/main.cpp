@@ -69,7 +69,7 @@ struct BakeFlags {
             ->check(CLI::Range(1.0, 100.0))
             ->capture_default_str(),
         command->add_option("--tets", tets, "Make the cage from the mesh, with about this many tets (±15 %), instead of --cage"),
-        command->add_option("--method", method, "How --tets makes the cage: lattice (trimmed cubes, 6 tets each)")
+        command->add_option("--method", method, "How --tets makes the cage: lattice (trimmed cubes, fast) or wrap (alpha wrap + Mesh_3, shape-following)")
             ->capture_default_str(),
     };
   }
@@ -191,7 +191,7 @@ CLI::App* add_cage_command(CLI::App& app, CageArgs& args) {
   command->add_option("--tets", args.tets, "About how many tets (the cage lands within ±15 %)")->required();
   command->add_option("-o,--output", args.output, "Cage to write: .node (+ .ele), .msh (Gmsh 2.2), .mesh (MEDIT)")
       ->required();
-  command->add_option("--method", args.method, "lattice: trimmed cubes, 6 Kuhn tets each (min dihedral 45°)")
+  command->add_option("--method", args.method, "lattice: trimmed cubes, 6 Kuhn tets each (min dihedral 45°, fast); wrap: an alpha-wrap envelope meshed by CGAL Mesh_3 (shape-following, min dihedral 10°)")
       ->capture_default_str();
   command->add_flag("--weld", args.weld, "Merge vertices at identical positions even across normal/UV seams");
   command->add_flag("--json", args.json, "The cage's quality as JSON on stdout");

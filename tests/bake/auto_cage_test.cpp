@@ -151,6 +151,53 @@ TEST(LatticeCage, TheSameMeshGivesTheSameCageAtAnyThreadCount) {
   EXPECT_EQ(one.cell, two.cell);
 }
 
+AutoCageOptions wrapping(std::size_t tets) {
+  AutoCageOptions options = asking(tets);
+  options.method = "wrap";
+  return options;
+}
+
+// The wrap cage follows the shape (alpha wrap, then Mesh_3 with perturb and exude): it
+// lands within ±15 %, holds the surface exactly, keeps every dihedral angle at or above
+// 10° and has no degenerate tet, in one piece, within 2.5× the solid's volume; at 300
+// tets it is tighter than the lattice of the same count.
+TEST(WrapCage, BunnyCagesLandContainItAndKeep10Degrees) {
+  const SurfaceMesh mesh = bunny();
+  for (const std::size_t asked : {300u, 2000u}) {
+    const AutoCage cage = make_cage(mesh, wrapping(asked), "bunny");
+    const double made = static_cast<double>(cage.mesh.tet_count());
+    EXPECT_LE(std::abs(made / static_cast<double>(asked) - 1.0), 0.15) << asked << " asked, " << made << " made";
+    EXPECT_NO_THROW(check_cage_covers(mesh, cage.mesh, "bunny", "wrap")) << asked;
+    const CageQuality q = measure_cage(mesh, cage.mesh);
+    EXPECT_GE(q.min_dihedral_deg, 10.0) << asked;
+    EXPECT_EQ(q.degenerate_tets, 0u);
+    EXPECT_EQ(q.pieces, 1u) << asked;
+    EXPECT_LT(q.cage_volume, 2.5 * q.solid_volume) << asked;
+    if (asked == 300) {
+      EXPECT_LT(q.cage_volume, measure_cage(mesh, make_cage(mesh, asking(asked), "bunny").mesh).cage_volume);
+    }
+  }
+}
+
+// Below a few hundred tets the envelope's surface alone needs more: a clear error that
+// points at the lattice.
+TEST(WrapCage, ACountTooSmallForTheEnvelopeNamesTheLattice) {
+  expect_error_containing([] { make_cage(bunny(), wrapping(60), "bunny"); },
+                          {"no wrap cage lands within ±15 % of --tets 60", "--method lattice"});
+}
+
+TEST(WrapCage, TheSameMeshGivesTheSameCageAtAnyThreadCount) {
+  const SurfaceMesh mesh = bunny();
+  AutoCage one, two;
+  {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    one = make_cage(mesh, wrapping(500), "bunny");
+  }
+  two = make_cage(mesh, wrapping(500), "bunny");
+  EXPECT_EQ(one.mesh.rest_positions, two.mesh.rest_positions);
+  EXPECT_EQ(one.mesh.tets, two.mesh.tets);
+}
+
 TEST(LatticeCage, BadInputIsAClearError) {
   expect_error_containing([] { make_cage(SurfaceMesh{}, asking(100), "empty.obj"); }, {"empty.obj", "no triangles"});
   SurfaceMesh flat;
@@ -164,9 +211,9 @@ TEST(LatticeCage, BadInputIsAClearError) {
   const SurfaceMesh sphere = testing::icosphere(2);
   expect_error_containing([&] { make_cage(sphere, asking(0), "s"); }, {"--tets 0", "out of range"});
   expect_error_containing([&] { make_cage(sphere, asking(1'000'000'000), "s"); }, {"--tets 1000000000", "out of range"});
-  AutoCageOptions wrap = asking(100);
-  wrap.method = "wrap";
-  expect_error_containing([&] { make_cage(sphere, wrap, "s"); }, {"--method wrap", "lattice"});
+  AutoCageOptions voxel = asking(100);
+  voxel.method = "voxel";
+  expect_error_containing([&] { make_cage(sphere, voxel, "s"); }, {"--method voxel", "lattice", "wrap"});
 }
 
 TEST(LatticeCage, TetCountsParseAsTyped) {

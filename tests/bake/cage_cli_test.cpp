@@ -101,6 +101,25 @@ TEST(CageCli, BakeWithTetsRecordsTheCageSoStatusKnowsWhenItIsStale) {
   EXPECT_TRUE(contains(status.output, "baked on an automatic cage")) << status.output;
 }
 
+TEST(CageCli, TheWrapMethodIsRecordedAndComparedLikeTheCount) {
+  testing::TempDir dir;
+  const Result cage = run("cage --mesh " + quoted(kMesh) + " --tets 300 --method wrap -o " + quoted(dir / "w.msh"));
+  ASSERT_EQ(cage.exit_code, 0) << cage.output;
+  EXPECT_TRUE(contains(cage.output, ", wrap, cell")) << cage.output;
+  EXPECT_TRUE(contains(cage.output, "1 face-connected piece")) << cage.output;
+  const auto bundle = dir / "b.h5";
+  const Result bake =
+      run("bake --mesh " + quoted(kMesh) + " --tets 300 --method wrap --skip walls collision -o " + quoted(bundle));
+  ASSERT_EQ(bake.exit_code, 0) << bake.output;
+  EXPECT_EQ(formats::read_cage(dir / "w.msh").mesh.tet_count(),
+            static_cast<std::size_t>(std::stoul(bake.output.substr(bake.output.find("triangles in ") + 13))));
+  Result status = run("status " + quoted(bundle) + " --tets 300 --method wrap --skip walls collision");
+  EXPECT_EQ(status.exit_code, 0) << status.output;
+  status = run("status " + quoted(bundle) + " --tets 300 --skip walls collision");
+  EXPECT_EQ(status.exit_code, 3) << status.output;
+  EXPECT_TRUE(contains(status.output, "cage_method \"wrap\" -> \"lattice\"")) << status.output;
+}
+
 TEST(CageCli, BakeNeedsExactlyOneWayToTheCage) {
   testing::TempDir dir;
   const auto out = dir / "b.h5";
