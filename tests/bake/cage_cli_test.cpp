@@ -48,6 +48,16 @@ TEST(CageCli, SameInputsGiveTheSameBytesAtAnyThreadCount) {
   EXPECT_EQ(bytes_of(dir / "a.ele"), bytes_of(dir / "b.ele"));
 }
 
+TEST(CageCli, BakeWithTetsGivesTheSameBundleAtAnyThreadCount) {
+  testing::TempDir dir;
+  for (const char* method : {"lattice", "wrap"}) {
+    const std::string inputs = " --mesh " + quoted(kMesh) + " --tets 400 --method " + method + " --skip walls";
+    ASSERT_EQ(run("-q -j 1 bake" + inputs + " -o " + quoted(dir / "a.h5")).exit_code, 0) << method;
+    ASSERT_EQ(run("-q -j 2 bake" + inputs + " -o " + quoted(dir / "b.h5")).exit_code, 0) << method;
+    EXPECT_EQ(bytes_of(dir / "a.h5"), bytes_of(dir / "b.h5")) << method;
+  }
+}
+
 TEST(CageCli, BadInputExitsOneNamingItAndWritesNothing) {
   testing::TempDir dir;
   const auto out = dir / "c.node";
