@@ -129,28 +129,27 @@ void warn_below_10_degrees(const TetMesh& cage) {
   }
 }
 
-/// The wrap's parameters. The envelope comes from the first estimate of the cell,
-/// `estimate` (so the search cannot inflate the envelope with the cell and find the
-/// count on a balloon: a coarser envelope needing as many tets as a finer one): gaps
-/// wider than about two cells stay open, and it stands half a cell out (times `grow`
-/// after a miss). Mesh_3's boundary keeps within an eighth of the searched `cell` of
-/// it, and at most half the clearance, so the cage cannot cut into the surface by more
-/// than Mesh_3's approximation (checked exactly afterwards).
-WrapParameters wrap_parameters(double estimate, double cell, double grow) {
-  const double offset = grow * estimate / 2.0;
-  return {2.0 * estimate, offset, std::min(cell / 8.0, offset / 2.0)};
-}
+/// The wrap's envelope, made from the first estimate of the cell, `estimate` (so the
+/// search cannot inflate the envelope with the cell and find the count on a balloon: a
+/// coarser envelope needing as many tets as a finer one): gaps wider than about two
+/// cells stay open, and it stands half a cell out (times `grow` after a miss).
+WrapParameters wrap_parameters(double estimate, double grow) { return {2.0 * estimate, grow * estimate / 2.0}; }
+
+/// Mesh_3's boundary keeps within an eighth of the cell of the envelope, and within half
+/// its clearance, so the cage cannot cut into the surface by more than Mesh_3's
+/// approximation (checked exactly afterwards), and coarser cages follow the surface
+/// more loosely, needing fewer tets along it.
+double facet_distance(const WrapParameters& wrap, double cell) { return std::min(cell / 8.0, wrap.offset / 2.0); }
 
 /// The cell size at which the wrap's mesh lands nearest the count: secant steps on
 /// log(count) against log(cell) (Mesh_3's count falls like cell^-3), unpolished meshes.
-double search_wrap_cell(const SurfaceMesh& mesh, double estimate, double grow, const AutoCageOptions& options,
-                        std::size_t& tries) {
-  double cell = estimate;
+double search_wrap_cell(const SurfaceWrap& wrap, const WrapParameters& parameters, double cell,
+                        const AutoCageOptions& options, std::size_t& tries) {
   const double asked = static_cast<double>(options.tets);
   double best_cell = cell, best_miss = std::numeric_limits<double>::infinity(), slope = 3.0;
   double last_cell = 0, last_count = 0;
   for (int step = 0; step < 8; ++step) {
-    const double count = static_cast<double>(SurfaceWrap(mesh, wrap_parameters(estimate, cell, grow)).mesh_at(cell, false).tet_count());
+    const double count = static_cast<double>(wrap.mesh_at(cell, facet_distance(parameters, cell), false).tet_count());
     ++tries;
     log_debug("wrap: cell " + std::to_string(cell) + ": " + std::to_string(static_cast<std::size_t>(count)) + " tets");
     const double miss = count > 0 ? std::abs(std::log(count / asked)) : std::numeric_limits<double>::infinity();
@@ -181,9 +180,10 @@ AutoCage wrap_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, cons
   double cell = estimate;
   for (double grow = 1.0;; grow *= 1.5) {
     // A larger clearance makes a larger envelope: the cell is searched again for it.
-    cell = search_wrap_cell(mesh, estimate, grow, options, cage.tries);
-    parameters = wrap_parameters(estimate, cell, grow);
-    cage.mesh = SurfaceWrap(mesh, parameters).mesh_at(cell, true);
+    parameters = wrap_parameters(estimate, grow);
+    const SurfaceWrap wrap(mesh, parameters);
+    cell = search_wrap_cell(wrap, parameters, estimate, options, cage.tries);
+    cage.mesh = wrap.mesh_at(cell, facet_distance(parameters, cell), true);
     cage.cell = cell;
     if (!lands(cage.mesh.tet_count(), options)) throw_missed(mesh_name, options, cage.mesh.tet_count(), cell, cage.tries);
     try {

@@ -58,8 +58,7 @@ struct SurfaceWrap::Impl {
   Envelope envelope;
 };
 
-SurfaceWrap::SurfaceWrap(const SurfaceMesh& mesh, const WrapParameters& parameters)
-    : m_impl(new Impl), m_parameters(parameters) {
+SurfaceWrap::SurfaceWrap(const SurfaceMesh& mesh, const WrapParameters& parameters) : m_impl(new Impl) {
   std::vector<Point> points;
   points.reserve(mesh.vertex_count());
   for (Index v = 0; v < mesh.vertex_count(); ++v) {
@@ -77,13 +76,13 @@ SurfaceWrap::~SurfaceWrap() { delete m_impl; }
 
 std::size_t SurfaceWrap::envelope_triangles() const { return m_impl->envelope.number_of_faces(); }
 
-TetMesh SurfaceWrap::mesh_at(double cell, bool polish) const {
+TetMesh SurfaceWrap::mesh_at(double cell, double facet_distance, bool polish) const {
   namespace params = CGAL::parameters;
   // Every run its own seed: the same input gives the same mesh whatever ran before.
   CGAL::Random random(0);
   Domain domain(m_impl->envelope, &random);
   const Criteria criteria(params::facet_angle = 25, params::facet_size = cell,
-                          params::facet_distance = m_parameters.facet_distance, params::cell_radius_edge_ratio = 3,
+                          params::facet_distance = facet_distance, params::cell_radius_edge_ratio = 3,
                           params::cell_size = cell);
   CGAL::get_default_random() = CGAL::Random(0);
   Complex complex = CGAL::make_mesh_3<Complex>(domain, criteria, params::no_perturb(), params::no_exude());

@@ -16,9 +16,6 @@ namespace fissure::bake {
 struct WrapParameters {
   double alpha = 0;   ///< the wrap's ball size [m]: gaps narrower than it close
   double offset = 0;  ///< the envelope's distance outside the surface [m]
-  /// How far Mesh_3's boundary may stray from the envelope [m]: below `offset`, or the
-  /// cage may cut into the surface; the smaller, the more tets along the boundary.
-  double facet_distance = 0;
 };
 
 /// The envelope of one WrapParameters, meshed at any cell size.
@@ -29,15 +26,17 @@ class SurfaceWrap {
   SurfaceWrap(const SurfaceWrap&) = delete;
   SurfaceWrap& operator=(const SurfaceWrap&) = delete;
 
-  /// The envelope's tet mesh at cells of about `cell` [m]; with `polish`, perturbed and
-  /// exuded (sliver bound 10°). Deterministic: every run seeds its own generator.
-  [[nodiscard]] TetMesh mesh_at(double cell, bool polish) const;
+  /// The envelope's tet mesh at cells of about `cell` [m], its boundary within
+  /// `facet_distance` [m] of the envelope (below the offset, or the cage may cut into
+  /// the surface; the smaller, the more tets along the boundary); with `polish`,
+  /// perturbed and exuded (sliver bound 10°). Deterministic: every run seeds its own
+  /// generator. The envelope is made once, so a search over cells re-meshes only.
+  [[nodiscard]] TetMesh mesh_at(double cell, double facet_distance, bool polish) const;
   [[nodiscard]] std::size_t envelope_triangles() const;
 
  private:
   struct Impl;
   Impl* m_impl;
-  WrapParameters m_parameters;
 };
 
 }  // namespace fissure::bake
