@@ -8,6 +8,7 @@
 
 #include "bake/exact_embedding.h"
 #include "bake/file_hash.h"
+#include "bake/repeated_triangles.h"
 #include "bake/self_intersections.h"
 #include "bake/surface_orientation.h"
 #include "bake/winding_number.h"
@@ -112,6 +113,12 @@ void require_inside_cage_bounds(const SurfaceMesh& mesh, const TetMesh& cage, co
 /// Orients the surface consistently and counts where it crosses itself, warning about
 /// both: what the bake repairs, and what it bakes as it is.
 void repair_surface(SurfaceMesh& mesh, const std::string& mesh_name, BakeStats& s) {
+  s.repeated_triangles = remove_repeated_triangles(mesh);
+  if (s.repeated_triangles > 0) {
+    log_warning(mesh_name + ": dropped " + std::to_string(s.repeated_triangles) +
+                " triangles that repeat an earlier triangle's corners; " + std::to_string(mesh.triangle_count()) +
+                " remain");
+  }
   const OrientationRepair orientation = orient_surface(mesh);
   s.flipped_triangles = orientation.flipped();
   if (orientation.flipped_to_agree > 0) {
@@ -313,7 +320,10 @@ formats::Bundle embed(const SurfaceMesh& input_mesh, const TetMesh& cage, const 
   if (input_mesh.triangle_count() == 0) throw Error(mesh_name + ": the mesh has no triangles");
   // Bad stage options fail before any work.
   if (options.walls) validate(options.wall);
-  if (options.collision) validate(options.spheres);
+  if (options.collision) {
+    validate(options.spheres);
+    check_collision_work(cage, options.spheres);
+  }
 
   formats::Bundle bundle;
   bundle.render = input_mesh;

@@ -46,6 +46,7 @@ struct BakeStats {
   std::size_t degenerate_triangles = 0;
   std::size_t coplanar_pairs = 0;
   std::size_t boundary_edges = 0, boundary_loops = 0, nonmanifold_edges = 0;
+  std::size_t repeated_triangles = 0;  ///< dropped copies (bake/repeated_triangles.h)
   std::size_t flipped_triangles = 0;   ///< by the orientation repair (bake/surface_orientation.h)
   std::size_t self_intersections = 0;  ///< crossing triangle pairs (bake/self_intersections.h)
 };

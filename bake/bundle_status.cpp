@@ -49,7 +49,12 @@ void check_input(BundleStatus& status, const formats::BundleMetadata& metadata, 
   for (const fs::path& file : files) {
     std::error_code ec;
     if (!fs::is_regular_file(file, ec)) {
-      mark(status, BundleState::MissingInput, role + " " + file.string() + " not found");
+      // Where the bake read it, relative to the bundle: a bundle copied away from its
+      // inputs lands here, and the flags that name them are the way out.
+      mark(status, BundleState::MissingInput,
+           role + " " + file.string() + " not found" +
+               (asked ? "" : " (where the bake read it, relative to the bundle; if the bundle was copied away from "
+                             "its inputs, pass --mesh and --cage)"));
       return;
     }
   }
@@ -168,6 +173,14 @@ int status_exit_code(const std::vector<BundleStatus>& statuses) {
     if (s.state == BundleState::Stale) code = kStatusStale;
   }
   return code;
+}
+
+formats::VerifyCheck status_check(const fs::path& bundle) {
+  const BundleStatus status = bundle_status(bundle);
+  if (status.state == BundleState::UpToDate) return {"status", true, "inputs, options and bake version match"};
+  std::string detail = to_string(status.state);
+  for (const std::string& reason : status.reasons) detail += "; " + reason;
+  return {"status", false, detail};
 }
 
 const char* to_string(BundleState state) {

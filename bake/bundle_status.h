@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "formats/bundle.h"
+#include "formats/bundle_checks.h"
 
 namespace fissure::bake {
 
@@ -44,6 +45,10 @@ void record_input_paths(formats::BundleMetadata& metadata, const std::filesystem
 inline constexpr int kStatusStale = 3;
 inline constexpr int kStatusMissingInput = 4;
 int status_exit_code(const std::vector<BundleStatus>& statuses);
+
+/// `verify --status`: the bundle's status as one more check ("status"), so that a CI
+/// report goes red with the job when a bundle is stale or an input is missing.
+formats::VerifyCheck status_check(const std::filesystem::path& bundle);
 
 std::string status_text(const std::vector<BundleStatus>& statuses);
 std::string status_json(const std::vector<BundleStatus>& statuses);

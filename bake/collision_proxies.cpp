@@ -6,9 +6,11 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <unordered_set>
 
 #include "common/barycentric.h"
+#include "bake/progress.h"
 #include "common/error.h"
 
 namespace fissure::bake {
@@ -114,131 +116,169 @@ SolidPart solid_part(const formats::Bundle& b, const FaceRegions& regions, TetIn
   return part;
 }
 
-formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& regions, const WindingNumberTree& winding,
-                                  const SphereOptions& options, CollisionStats* stats) {
-  validate(options);
-  CollisionStats local_stats;
-  CollisionStats& st = stats ? *stats : local_stats;
-  const TetMesh& cage = b.cage;
-  const auto& classes = b.embedding.tet_class;
-  formats::Collision c;
-  c.target_radius = options.radius > 0.0 ? options.radius : default_sphere_radius(cage);
+namespace {
+
+/// Everything the per-tet work shares.
+struct CollisionGrid {
+  const formats::Bundle& b;
+  const FaceRegions& regions;
+  const WindingNumberTree& winding;
+  const SphereOptions& options;
+  Vec3 origin;
+  double spacing0;
+};
+
+/// Per-tet results of step 1, written by one thread each.
+struct TetSamples {
+  std::vector<std::vector<GridKey>> keys;
+  std::vector<std::uint8_t> halved, short_of_three, sampled;
+  explicit TetSamples(std::size_t tets) : keys(tets), halved(tets, 0), short_of_three(tets, 0), sampled(tets, 0) {}
+};
+
+std::string short_number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", value);
+  return text;
+}
+
+/// Refuses a radius whose grid would take too long or too much memory, before any
+/// work: the grid points step 1 scans, estimated from every tet's bounding box at the
+/// starting spacing (an upper bound: outside tets are skipped). A radius of 1e-3 on a
+/// 12-triangle cube used to run past 20 s with nothing shown (issue 46).
+void check_grid_work(const TetMesh& cage, const SphereOptions& options, double radius, double spacing0) {
   const Vec3 origin = cage.rest_positions.rowwise().minCoeff();
-  const double spacing0 = 2.0 * c.target_radius;
-  {
-    // Grid indices are 32-bit, and a lattice this fine would take forever to scan.
-    const double extent = (cage.rest_positions.rowwise().maxCoeff() - origin).maxCoeff();
-    const double cells = extent / (spacing0 / std::ldexp(1.0, options.max_halvings));
-    if (!(cells <= 1 << 20)) {
-      char text[160];
-      std::snprintf(text, sizeof text, "--sphere-radius %.3g is too small for a cage %.3g across (%.3g grid cells per axis)",
-                    c.target_radius, extent, cells);
-      throw Error(text, "use a radius of at least a few thousandths of the cage size");
+  // Grid indices are 32-bit, and a lattice this fine would take forever to scan.
+  const double extent = (cage.rest_positions.rowwise().maxCoeff() - origin).maxCoeff();
+  const double cells = extent / (spacing0 / std::ldexp(1.0, options.max_halvings));
+  if (!(cells <= 1 << 20)) {
+    throw Error("--sphere-radius " + short_number(radius) + " is too small for a cage " + short_number(extent) +
+                    " across (" + short_number(cells) + " grid cells per axis)",
+                "use a radius of at least a few thousandths of the cage size");
+  }
+  if (options.max_grid_points == 0) return;
+  const double points = estimated_grid_points(cage, spacing0);
+  if (points <= static_cast<double>(options.max_grid_points)) return;
+  throw Error("--sphere-radius " + short_number(radius) + " implies scanning about " + short_number(points) +
+                  " grid points for the collision spheres, past the limit of " +
+                  short_number(static_cast<double>(options.max_grid_points)) + " (past it: minutes of work and gigabytes)",
+              "use a larger radius (the default is a fifth of the median cage edge), or pass --no-work-limit to run "
+              "it anyway");
+}
+
+/// Mass fraction and centre of mass of tet `t` (step 1a); `sampled` when it had to be
+/// estimated on a lattice.
+void tet_mass(const CollisionGrid& g, const std::vector<std::size_t>& instances, std::size_t t, formats::Collision& c,
+              std::uint8_t& sampled) {
+  const auto tet = static_cast<TetIndex>(t);
+  const auto nodes = tet_nodes(g.b.cage, tet);
+  const TetBarycentricFrame frame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
+  const double tet_volume = signed_volume(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
+  bool beside_degenerate = false;
+  for (int local = 0; local < 4; ++local) {
+    beside_degenerate |= g.b.embedding.face_degenerate[g.b.faces.tet_faces(local, tet)] != 0;
+  }
+  if (g.b.embedding.tet_class[t] == TetClass::Inside) {
+    c.mass_fraction[t] = 1.0;
+  } else if (beside_degenerate) {
+    // A face of this tet lies in the surface, where the exact integral needs the
+    // face's inside region, which is not defined: estimate on a barycentric lattice.
+    constexpr int kLattice = 16;
+    int inside = 0, total = 0;
+    Vec3 sum = Vec3::Zero();
+    for (int i = 0; i <= kLattice; ++i) {
+      for (int j = 0; i + j <= kLattice; ++j) {
+        for (int k = 0; i + j + k <= kLattice; ++k) {
+          // Lattice points nudged toward the centroid, off the faces themselves.
+          const Vec4 beta = (Vec4(kLattice - i - j - k, i, j, k) / kLattice) * (1.0 - 1e-6) + Vec4::Constant(0.25e-6);
+          const Vec3 x = nodes * beta;
+          ++total;
+          if (g.winding.winding_number(x) >= 0.5) {
+            ++inside;
+            sum += x;
+          }
+        }
+      }
+    }
+    c.mass_fraction[t] = static_cast<double>(inside) / total;
+    if (inside > 0) c.center_of_mass[t] = frame.coordinates(sum / inside);
+    sampled = 1;
+  } else {
+    const SolidPart part = solid_part(g.b, g.regions, tet, instances);
+    if (part.volume > 1e-10 * tet_volume) {
+      c.mass_fraction[t] = std::clamp(part.volume / tet_volume, 0.0, 1.0);
+      // The centroid of a solid part is inside the tet; clamp rounding noise (which
+      // dominates when the part is a tiny corner) back into it.
+      Vec4 beta = frame.coordinates(part.centroid).cwiseMax(0.0);
+      c.center_of_mass[t] = beta / beta.sum();
+    }  // else: a sliver at rounding level holds no mass; the centre stays the tet's centroid
+  }
+}
+
+/// The grid points of one level inside tet `t` and inside the solid.
+std::vector<GridKey> scan_level(const CollisionGrid& g, std::size_t t, int level) {
+  const auto nodes = tet_nodes(g.b.cage, static_cast<TetIndex>(t));
+  const TetBarycentricFrame frame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
+  const Vec3 lo = nodes.rowwise().minCoeff(), hi = nodes.rowwise().maxCoeff();
+  const bool crossing = g.b.embedding.tet_class[t] == TetClass::Crossing;
+  std::vector<GridKey> keys;
+  const double h = g.spacing0 / std::ldexp(1.0, level);
+  const Eigen::Vector3i first = ((lo - g.origin) / h - kGridOffset).array().ceil().cast<int>();
+  const Eigen::Vector3i last = ((hi - g.origin) / h - kGridOffset).array().floor().cast<int>();
+  for (int k = first.z(); k <= last.z(); ++k) {
+    for (int j = first.y(); j <= last.y(); ++j) {
+      for (int i = first.x(); i <= last.x(); ++i) {
+        const Vec3 x = g.origin + h * (Vec3(i, j, k) + kGridOffset);
+        if (frame.coordinates(x).minCoeff() < 0.0) continue;
+        if (crossing && g.winding.winding_number(x) < 0.5) continue;
+        keys.push_back({level, i, j, k});
+      }
     }
   }
+  return keys;
+}
 
-  // Instances grouped by tet, for the mass integrals.
-  std::vector<std::vector<std::size_t>> by_tet(cage.tet_count());
-  for (std::size_t i = 0; i < b.embedding.instance_count(); ++i) by_tet[b.embedding.instance_tet[i]].push_back(i);
+/// Step 1b: tet `t`'s samples, halving the spacing until it has 3.
+void sample_tet(const CollisionGrid& g, std::size_t t, double mass_fraction, TetSamples& out) {
+  const auto nodes = tet_nodes(g.b.cage, static_cast<TetIndex>(t));
+  const double tet_volume = signed_volume(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
+  const int max_halvings = g.options.max_halvings;
+  // The exact solid volume says which level can hold 3 samples (a lattice cell of
+  // volume h³ per sample): start there rather than scanning coarser levels in vain,
+  // and never scan a level finer than needed.
+  const double solid_volume = mass_fraction * tet_volume;
+  int start_level = 0;
+  while (start_level < max_halvings && solid_volume < 3.0 * std::pow(g.spacing0 / std::ldexp(1.0, start_level), 3)) {
+    ++start_level;
+  }
+  const double finest = g.spacing0 / std::ldexp(1.0, max_halvings);
+  if (solid_volume < finest * finest * finest) {
+    // Less solid than one cell of the finest lattice: no level can give it 3
+    // spheres, and scanning would cost the most of all. Its neighbours' spheres
+    // cover it.
+    out.short_of_three[t] = 1;
+    return;
+  }
+  for (int level = start_level; level <= max_halvings; ++level) {
+    std::vector<GridKey> keys = scan_level(g, t, level);
+    const bool enough = keys.size() >= 3;
+    if (enough || level == max_halvings) {
+      out.keys[t] = std::move(keys);
+      out.halved[t] = level > 0;
+      out.short_of_three[t] = !enough;
+      break;
+    }
+  }
+}
 
-  // 1. Samples per tet, halving the spacing until a non-empty tet has 3.
-  std::vector<std::vector<GridKey>> per_tet(cage.tet_count());
-  std::vector<std::uint8_t> halved(cage.tet_count(), 0), short_of_three(cage.tet_count(), 0), sampled(cage.tet_count(), 0);
-  c.mass_fraction.assign(cage.tet_count(), 0.0);
-  c.center_of_mass.assign(cage.tet_count(), Vec4::Constant(0.25));
-  tbb::parallel_for(std::size_t{0}, cage.tet_count(), [&](std::size_t t) {
-    const auto tet = static_cast<TetIndex>(t);
-    if (classes[t] == TetClass::Outside) return;
-    const auto nodes = tet_nodes(cage, tet);
-    const TetBarycentricFrame frame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
-    const double tet_volume = signed_volume(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
-    bool beside_degenerate = false;
-    for (int local = 0; local < 4; ++local) beside_degenerate |= b.embedding.face_degenerate[b.faces.tet_faces(local, tet)] != 0;
-    if (classes[t] == TetClass::Inside) {
-      c.mass_fraction[t] = 1.0;
-    } else if (beside_degenerate) {
-      // A face of this tet lies in the surface, where the exact integral needs the
-      // face's inside region, which is not defined: estimate on a barycentric lattice.
-      constexpr int kLattice = 16;
-      int inside = 0, total = 0;
-      Vec3 sum = Vec3::Zero();
-      for (int i = 0; i <= kLattice; ++i) {
-        for (int j = 0; i + j <= kLattice; ++j) {
-          for (int k = 0; i + j + k <= kLattice; ++k) {
-            // Lattice points nudged toward the centroid, off the faces themselves.
-            const Vec4 beta = (Vec4(kLattice - i - j - k, i, j, k) / kLattice) * (1.0 - 1e-6) + Vec4::Constant(0.25e-6);
-            const Vec3 x = nodes * beta;
-            ++total;
-            if (winding.winding_number(x) >= 0.5) {
-              ++inside;
-              sum += x;
-            }
-          }
-        }
-      }
-      c.mass_fraction[t] = static_cast<double>(inside) / total;
-      if (inside > 0) c.center_of_mass[t] = frame.coordinates(sum / inside);
-      sampled[t] = 1;
-    } else {
-      const SolidPart part = solid_part(b, regions, tet, by_tet[t]);
-      if (part.volume > 1e-10 * tet_volume) {
-        c.mass_fraction[t] = std::clamp(part.volume / tet_volume, 0.0, 1.0);
-        // The centroid of a solid part is inside the tet; clamp rounding noise (which
-        // dominates when the part is a tiny corner) back into it.
-        Vec4 beta = frame.coordinates(part.centroid).cwiseMax(0.0);
-        c.center_of_mass[t] = beta / beta.sum();
-      }  // else: a sliver at rounding level holds no mass; the centre stays the tet's centroid
-    }
-    if (c.mass_fraction[t] <= 0.0) return;
-    const Vec3 lo = nodes.rowwise().minCoeff(), hi = nodes.rowwise().maxCoeff();
-    // The exact solid volume says which level can hold 3 samples (a lattice cell of
-    // volume h³ per sample): start there rather than scanning coarser levels in vain,
-    // and never scan a level finer than needed.
-    const double solid_volume = c.mass_fraction[t] * tet_volume;
-    int start_level = 0;
-    while (start_level < options.max_halvings && solid_volume < 3.0 * std::pow(spacing0 / std::ldexp(1.0, start_level), 3)) {
-      ++start_level;
-    }
-    const double finest = spacing0 / std::ldexp(1.0, options.max_halvings);
-    if (solid_volume < finest * finest * finest) {
-      // Less solid than one cell of the finest lattice: no level can give it 3
-      // spheres, and scanning would cost the most of all. Its neighbours' spheres
-      // cover it.
-      short_of_three[t] = 1;
-      return;
-    }
-    for (int level = start_level; level <= options.max_halvings; ++level) {
-      std::vector<GridKey> keys;
-      const double h = spacing0 / std::ldexp(1.0, level);
-      const Eigen::Vector3i first = ((lo - origin) / h - kGridOffset).array().ceil().cast<int>();
-      const Eigen::Vector3i last = ((hi - origin) / h - kGridOffset).array().floor().cast<int>();
-      for (int k = first.z(); k <= last.z(); ++k) {
-        for (int j = first.y(); j <= last.y(); ++j) {
-          for (int i = first.x(); i <= last.x(); ++i) {
-            const Vec3 x = origin + h * (Vec3(i, j, k) + kGridOffset);
-            if (frame.coordinates(x).minCoeff() < 0.0) continue;
-            if (classes[t] == TetClass::Crossing && winding.winding_number(x) < 0.5) continue;
-            keys.push_back({level, i, j, k});
-          }
-        }
-      }
-      const bool enough = keys.size() >= 3;
-      if (enough || level == options.max_halvings) {
-        per_tet[t] = std::move(keys);
-        halved[t] = level > 0;
-        short_of_three[t] = !enough;
-        break;
-      }
-    }
-  });
-
-  // 2. A grid point on a face shared by two tets belongs to the lower-numbered one.
+/// Step 2: every tet's samples, one per grid point: a point on a face shared by two
+/// tets belongs to the lower-numbered one.
+std::vector<Sample> unique_samples(const TetSamples& per_tet, formats::Collision& c, CollisionStats& st) {
   std::vector<Sample> samples;
-  for (TetIndex t = 0; t < cage.tet_count(); ++t) {
-    for (const GridKey& key : per_tet[t]) samples.push_back({key, t});
-    st.tets_halved += halved[t];
-    c.sampled_tets += sampled[t];
-    st.tets_short += short_of_three[t];
+  for (TetIndex t = 0; t < per_tet.keys.size(); ++t) {
+    for (const GridKey& key : per_tet.keys[t]) samples.push_back({key, t});
+    st.tets_halved += per_tet.halved[t];
+    c.sampled_tets += per_tet.sampled[t];
+    st.tets_short += per_tet.short_of_three[t];
   }
   std::sort(samples.begin(), samples.end(), [](const Sample& x, const Sample& y) {
     return x.key != y.key ? x.key < y.key : x.tet < y.tet;
@@ -246,8 +286,11 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
   samples.erase(std::unique(samples.begin(), samples.end(), [](const Sample& x, const Sample& y) { return x.key == y.key; }),
                 samples.end());
   st.samples_kept = samples.size();
+  return samples;
+}
 
-  // 3. Cull spheres whose 26 neighbours (same level) are all present.
+/// Step 3: drops spheres whose 26 neighbours (same level) are all present.
+std::vector<Sample> cull_surrounded(const std::vector<Sample>& samples, bool cull) {
   std::unordered_set<GridKey, GridKeyHash> present;
   present.reserve(samples.size() * 2);
   for (const Sample& s : samples) present.insert(s.key);
@@ -262,15 +305,66 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
         }
       }
     }
-    if (!surrounded || !options.cull_surrounded) kept.push_back(s);
+    if (!surrounded || !cull) kept.push_back(s);
   }
-  st.culled = samples.size() - kept.size();
   std::sort(kept.begin(), kept.end(), [](const Sample& x, const Sample& y) {
     return x.tet != y.tet ? x.tet < y.tet : x.key < y.key;
   });
+  return kept;
+}
+
+}  // namespace
+
+double estimated_grid_points(const TetMesh& cage, double spacing) {
+  double points = 0.0;
+  for (Index t = 0; t < cage.tet_count(); ++t) {
+    const auto nodes = tet_nodes(cage, static_cast<TetIndex>(t));
+    const Vec3 size = nodes.rowwise().maxCoeff() - nodes.rowwise().minCoeff();
+    // Whole cells per axis, plus one: a thin tet still scans a row of points.
+    points += (size.x() / spacing + 1.0) * (size.y() / spacing + 1.0) * (size.z() / spacing + 1.0);
+  }
+  return points;
+}
+
+void check_collision_work(const TetMesh& cage, const SphereOptions& options) {
+  const double radius = options.radius > 0.0 ? options.radius : default_sphere_radius(cage);
+  check_grid_work(cage, options, radius, 2.0 * radius);
+}
+
+formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& regions, const WindingNumberTree& winding,
+                                  const SphereOptions& options, CollisionStats* stats) {
+  validate(options);
+  CollisionStats local_stats;
+  CollisionStats& st = stats ? *stats : local_stats;
+  const TetMesh& cage = b.cage;
+  formats::Collision c;
+  c.target_radius = options.radius > 0.0 ? options.radius : default_sphere_radius(cage);
+  const CollisionGrid grid{b, regions, winding, options, cage.rest_positions.rowwise().minCoeff(), 2.0 * c.target_radius};
+  check_grid_work(cage, options, c.target_radius, grid.spacing0);
+
+  // Instances grouped by tet, for the mass integrals.
+  std::vector<std::vector<std::size_t>> by_tet(cage.tet_count());
+  for (std::size_t i = 0; i < b.embedding.instance_count(); ++i) by_tet[b.embedding.instance_tet[i]].push_back(i);
+
+  // 1. Mass, then samples per tet, halving the spacing until a non-empty tet has 3.
+  TetSamples per_tet(cage.tet_count());
+  c.mass_fraction.assign(cage.tet_count(), 0.0);
+  c.center_of_mass.assign(cage.tet_count(), Vec4::Constant(0.25));
+  StageProgress progress("collision", "tets", cage.tet_count());
+  tbb::parallel_for(std::size_t{0}, cage.tet_count(), [&](std::size_t t) {
+    if (b.embedding.tet_class[t] != TetClass::Outside) {
+      tet_mass(grid, by_tet[t], t, c, per_tet.sampled[t]);
+      if (!(c.mass_fraction[t] <= 0.0)) sample_tet(grid, t, c.mass_fraction[t], per_tet);
+    }
+    progress.advance();
+  });
+
+  const std::vector<Sample> samples = unique_samples(per_tet, c, st);
+  const std::vector<Sample> kept = cull_surrounded(samples, options.cull_surrounded);
+  st.culled = samples.size() - kept.size();
   for (const Sample& s : kept) {
-    const double h = spacing0 / std::ldexp(1.0, s.key.level);
-    const Vec3 x = origin + h * (Vec3(s.key.i, s.key.j, s.key.k) + kGridOffset);
+    const double h = grid.spacing0 / std::ldexp(1.0, s.key.level);
+    const Vec3 x = grid.origin + h * (Vec3(s.key.i, s.key.j, s.key.k) + kGridOffset);
     const auto nodes = tet_nodes(cage, s.tet);
     const TetBarycentricFrame frame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
     c.sphere_tet.push_back(s.tet);

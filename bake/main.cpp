@@ -17,6 +17,7 @@
 #include "bake/cage_quality.h"
 #include "bake/bundle_status.h"
 #include "bake/replication.h"
+#include "common/cli_numbers.h"
 #include "common/error.h"
 #include "common/log.h"
 #include "common/output_file.h"
@@ -69,7 +70,9 @@ struct BakeFlags {
             ->check(CLI::Range(1.0, 100.0))
             ->capture_default_str(),
         command->add_option("--tets", tets, "Make the cage from the mesh, with about this many tets (±15 %), instead of --cage"),
-        command->add_option("--method", method, "How --tets makes the cage: lattice (trimmed cubes, fast) or wrap (alpha wrap + Mesh_3, shape-following)")
+        command->add_option("--method", method,
+                            "How --tets makes the cage: lattice (trimmed cubes, fast) or wrap (alpha wrap + Mesh_3, "
+                            "shape-following)")
             ->capture_default_str(),
     };
   }
@@ -183,21 +186,6 @@ int run_cage(const CageArgs& args) {
   return 0;
 }
 
-CLI::App* add_cage_command(CLI::App& app, CageArgs& args) {
-  auto* command = app.add_subcommand(
-      "cage", "Make a tetrahedral cage around --mesh with about --tets tets and write it to -o (.node, .msh or .mesh)");
-  command->add_option("--mesh", args.mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")
-      ->required();
-  command->add_option("--tets", args.tets, "About how many tets (the cage lands within ±15 %)")->required();
-  command->add_option("-o,--output", args.output, "Cage to write: .node (+ .ele), .msh (Gmsh 2.2), .mesh (MEDIT)")
-      ->required();
-  command->add_option("--method", args.method, "lattice: trimmed cubes, 6 Kuhn tets each (min dihedral 45°, fast); wrap: an alpha-wrap envelope meshed by CGAL Mesh_3 (shape-following, min dihedral 10°)")
-      ->capture_default_str();
-  command->add_flag("--weld", args.weld, "Merge vertices at identical positions even across normal/UV seams");
-  command->add_flag("--json", args.json, "The cage's quality as JSON on stdout");
-  return command;
-}
-
 int run_inspect(const std::string& path, bool json) {
   const formats::BundleSummary summary = formats::summarize_bundle(path);
   std::fputs((json ? formats::summary_json(summary) : formats::summary_text(summary)).c_str(), stdout);
@@ -231,6 +219,7 @@ struct VerifyArgs {
   std::string junit;
   std::optional<double> max_instances_per_triangle, max_size_mib;
   std::optional<std::uint64_t> max_spheres, max_tiles;
+  bool status = false;  ///< also compare each bundle with its inputs, as `status` does
 
   [[nodiscard]] formats::BundleBudgets budgets() const {
     formats::BundleBudgets b;
@@ -242,9 +231,26 @@ struct VerifyArgs {
   }
 };
 
+/// "INVALID" only for a broken invariant; a bundle that is sound but over a budget or
+/// stale says so, so a CI log tells a broken bake from a project limit.
+std::string verdict(const formats::JunitSuite& suite) {
+  if (suite.passed()) return "all invariants hold";
+  bool invariant = false, budget = false, stale = false;
+  for (const auto& check : suite.cases) {
+    if (check.passed) continue;
+    if (check.name == "status") stale = true;
+    else if (check.name.rfind("budget:", 0) == 0) budget = true;
+    else invariant = true;
+  }
+  if (invariant) return "INVALID";
+  std::string text = budget ? "over budget" : "";
+  if (stale) text += std::string(text.empty() ? "" : ", ") + "stale (re-bake it)";
+  return text + " (invariants hold)";
+}
+
 /// One bundle's invariants and budgets, printed; a bundle that cannot be read is
 /// reported (file and reason) and counted as failed, and the next one is checked.
-formats::JunitSuite verify_one(const std::string& path, const formats::BundleBudgets& budgets) {
+formats::JunitSuite verify_one(const std::string& path, const formats::BundleBudgets& budgets, bool status) {
   formats::JunitSuite suite{path, {}, {}};
   try {
     const formats::Bundle bundle = formats::read_bundle(path);
@@ -256,13 +262,16 @@ formats::JunitSuite verify_one(const std::string& path, const formats::BundleBud
     suite.error = e.what();
     return suite;
   }
-  // -q: the failures and the verdict only, for build logs.
+  if (status) suite.cases.push_back(bake::status_check(path));
+  // -q: the failures and the verdict only, for build logs; each failure names its bundle,
+  // since the lines of many bundles interleave there.
   const bool quiet = log_level() < LogLevel::Info;
   for (const auto& check : suite.cases) {
     if (quiet && check.passed) continue;
-    std::printf("%s  %-28s %s\n", check.passed ? "PASS" : "FAIL", check.name.c_str(), check.detail.c_str());
+    std::printf("%s%s  %-28s %s\n", quiet ? (path + ": ").c_str() : "", check.passed ? "PASS" : "FAIL",
+                check.name.c_str(), check.detail.c_str());
   }
-  std::printf("%s: %s\n", path.c_str(), suite.passed() ? "all invariants hold" : "INVALID");
+  std::printf("%s: %s\n", path.c_str(), verdict(suite).c_str());
   return suite;
 }
 
@@ -272,7 +281,7 @@ int run_verify(const VerifyArgs& args) {
   std::vector<formats::JunitSuite> suites;
   bool passed = true;
   for (const std::string& path : args.bundles) {
-    suites.push_back(verify_one(path, args.budgets()));
+    suites.push_back(verify_one(path, args.budgets(), args.status));
     passed = passed && suites.back().passed();
   }
   if (!args.junit.empty()) write_file_atomically(args.junit, formats::junit_xml(suites));
@@ -282,95 +291,155 @@ int run_verify(const VerifyArgs& args) {
   return passed ? 0 : 1;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  fissure::install_output_signal_handlers();
+/// The command line: every subcommand's options, and which one was given.
+struct Cli {
   CLI::App app{"fissure-bake: embed a render mesh in a tetrahedral cage and write a Fissure bundle (HDF5)."};
-  app.set_version_flag("--version", fissure::bake::generator_string());
-  app.require_subcommand(1);
   bool quiet = false, verbose = false;
   int threads = 0;
-  app.add_flag("-q,--quiet", quiet, "Print only warnings, errors and the result");
-  app.add_flag("-v,--verbose", verbose, "Print debug detail");
-  app.add_option("-j,--threads", threads, "Worker threads (default: all cores)")->check(CLI::Range(0, kMaxThreads));
-
   std::string mesh, cage, output;
   BakeFlags bake_flags;
-  auto* bake_cmd = app.add_subcommand("bake", "Embed --mesh in --cage and write the bundle to -o");
-  bake_cmd->add_option("--mesh", mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")->required();
-  bake_cmd->add_option("--cage", cage,
-                       "Tetrahedral cage: .node/.ele (TetGen), .msh (Gmsh 2.2/4.1), .mesh (MEDIT); or --tets to make one");
-  bake_cmd->add_option("-o,--output", output, "Bundle to write (.h5); written atomically")->required();
-  bake_flags.add_to(bake_cmd);
-  CageArgs cage_args;
-  CLI::App* cage_cmd = add_cage_command(app, cage_args);
-
+  bool no_work_limit = false;
   std::string bundle_path;
   bool json = false;
-  auto* inspect_cmd = app.add_subcommand("inspect", "Summarise a bundle: counts, sizes, stages");
-  inspect_cmd->add_option("bundle", bundle_path, "Bundle (.h5)")->required();
-  inspect_cmd->add_flag("--json", json, "Machine-readable JSON on stdout");
-
   StatusArgs status_args;
   BakeFlags status_flags;
-  auto* status_cmd = app.add_subcommand(
+  VerifyArgs verify_args;
+  std::vector<std::string> cages;
+  CageArgs cage_args;
+  CLI::App *bake_cmd = nullptr, *cage_cmd = nullptr, *inspect_cmd = nullptr, *status_cmd = nullptr,
+           *verify_cmd = nullptr, *replication_cmd = nullptr;
+};
+
+void add_bake_command(Cli& cli) {
+  cli.bake_cmd = cli.app.add_subcommand("bake", "Embed --mesh in --cage and write the bundle to -o");
+  CLI::App* bake_cmd = cli.bake_cmd;
+  bake_cmd->add_option("--mesh", cli.mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")
+      ->required();
+  bake_cmd->add_option("--cage", cli.cage,
+                       "Tetrahedral cage: .node/.ele (TetGen), .msh (Gmsh 2.2/4.1), .mesh (MEDIT); or --tets to make one");
+  bake_cmd->add_option("-o,--output", cli.output, "Bundle to write (.h5); written atomically")->required();
+  cli.bake_flags.add_to(bake_cmd);
+  bake_cmd->add_flag("--no-work-limit", cli.no_work_limit,
+                     "Run a stage whose estimated work is past its limit (a very small --sphere-radius, a very "
+                     "large --wall-res), however long it takes");
+}
+
+void add_cage_command(Cli& cli) {
+  CageArgs& args = cli.cage_args;
+  CLI::App* command = cli.cage_cmd = cli.app.add_subcommand(
+      "cage", "Make a tetrahedral cage around --mesh with about --tets tets and write it to -o (.node, .msh or .mesh)");
+  command->add_option("--mesh", args.mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")
+      ->required();
+  command->add_option("--tets", args.tets, "About how many tets (the cage lands within ±15 %)")->required();
+  command->add_option("-o,--output", args.output, "Cage to write: .node (+ .ele), .msh (Gmsh 2.2), .mesh (MEDIT)")
+      ->required();
+  command->add_option("--method", args.method,
+                      "lattice: trimmed cubes, 6 Kuhn tets each (min dihedral 45°, fast); wrap: an alpha-wrap envelope "
+                      "meshed by CGAL Mesh_3 (shape-following, min dihedral 10°)")
+      ->capture_default_str();
+  command->add_flag("--weld", args.weld, "Merge vertices at identical positions even across normal/UV seams");
+  command->add_flag("--json", args.json, "The cage's quality as JSON on stdout");
+}
+
+void add_inspect_command(Cli& cli) {
+  cli.inspect_cmd = cli.app.add_subcommand("inspect", "Summarise a bundle: counts, sizes, stages");
+  cli.inspect_cmd->add_option("bundle", cli.bundle_path, "Bundle (.h5)")->required();
+  cli.inspect_cmd->add_flag("--json", cli.json, "Machine-readable JSON on stdout");
+}
+
+void add_status_command(Cli& cli) {
+  CLI::App* status_cmd = cli.status_cmd = cli.app.add_subcommand(
       "status",
       "Is each bundle what baking its inputs today would write? Compares the inputs' SHA-256 (found where the bake "
       "read them, relative to the bundle), the bake's version and, when bake flags are given, the options. "
       "Exit 0: all up to date; 3: one is stale (or missing, or unreadable); 4: an input cannot be found");
-  status_cmd->add_option("bundles", status_args.bundles, "Bundles (.h5)")->required();
-  status_cmd->add_option("--mesh", status_args.mesh, "The mesh to compare with (default: where the bake read it)");
-  status_cmd->add_option("--cage", status_args.cage, "The cage to compare with (default: where the bake read it)");
-  status_cmd->add_flag("--json", status_args.json, "Machine-readable JSON on stdout");
-  status_flags.add_to(status_cmd);
+  StatusArgs& args = cli.status_args;
+  status_cmd->add_option("bundles", args.bundles, "Bundles (.h5)")->required();
+  status_cmd->add_option("--mesh", args.mesh, "The mesh to compare with (default: where the bake read it)");
+  status_cmd->add_option("--cage", args.cage, "The cage to compare with (default: where the bake read it)");
+  status_cmd->add_flag("--json", args.json, "Machine-readable JSON on stdout");
+  cli.status_flags.add_to(status_cmd);
+}
 
-  VerifyArgs verify_args;
-  auto* verify_cmd = app.add_subcommand(
+void add_verify_command(Cli& cli) {
+  CLI::App* verify_cmd = cli.verify_cmd = cli.app.add_subcommand(
       "verify", "Check every invariant of each bundle, and the budgets given; exit 1 if one fails or cannot be read");
-  verify_cmd->add_option("bundles", verify_args.bundles, "Bundles (.h5)")->required();
-  verify_cmd->add_option("--junit", verify_args.junit,
+  VerifyArgs& args = cli.verify_args;
+  verify_cmd->add_option("bundles", args.bundles, "Bundles (.h5)")->required();
+  verify_cmd->add_option("--junit", args.junit,
                          "Also write a JUnit XML report (one suite per bundle, one case per check) for CI test reporters");
-  verify_cmd->add_option("--max-instances-per-triangle", verify_args.max_instances_per_triangle,
+  verify_cmd->add_option("--max-instances-per-triangle", args.max_instances_per_triangle,
                          "Budget: stored triangle instances per render triangle (draw cost)")
       ->check(CLI::PositiveNumber);
-  verify_cmd->add_option("--max-size-mib", verify_args.max_size_mib, "Budget: the bundle file's size, MiB")
+  verify_cmd->add_option("--max-size-mib", args.max_size_mib, "Budget: the bundle file's size, MiB")
       ->check(CLI::PositiveNumber);
-  verify_cmd->add_option("--max-spheres", verify_args.max_spheres, "Budget: collision spheres (contact cost)");
-  verify_cmd->add_option("--max-tiles", verify_args.max_tiles, "Budget: wall tiles (texture memory)");
+  verify_cmd->add_option("--max-spheres", args.max_spheres, "Budget: collision spheres (contact cost)");
+  verify_cmd->add_option("--max-tiles", args.max_tiles, "Budget: wall tiles (texture memory)");
+  verify_cmd->add_flag("--status", args.status,
+                       "Also check that each bundle is up to date with its inputs (as `status` does): one more case each");
+}
 
-  std::vector<std::string> cages;
-  auto* replication_cmd =
-      app.add_subcommand("replication", "Count how often each triangle is stored, per cage (thesis Table II)");
-  replication_cmd->add_option("mesh", mesh, "Render mesh")->required();
-  replication_cmd->add_option("--cages", cages, "One or more cages")->required();
-  replication_cmd->add_flag("--json", json, "Machine-readable JSON on stdout");
+void add_replication_command(Cli& cli) {
+  cli.replication_cmd =
+      cli.app.add_subcommand("replication", "Count how often each triangle is stored, per cage (thesis Table II)");
+  cli.replication_cmd->add_option("mesh", cli.mesh, "Render mesh")->required();
+  cli.replication_cmd->add_option("--cages", cli.cages, "One or more cages")->required();
+  cli.replication_cmd->add_flag("--json", cli.json, "Machine-readable JSON on stdout");
+}
+
+/// Runs the subcommand given; fissure::Error and other exceptions reach main.
+int run_command(const Cli& cli) {
+  if (*cli.bake_cmd) {
+    bake::BakeOptions options = cli.bake_flags.to_options();
+    if (cli.no_work_limit) {
+      options.spheres.max_grid_points = 0;
+      options.wall.max_work = 0;
+    }
+    return run_bake(cli.mesh, cli.cage, cli.output, options);
+  }
+  if (*cli.cage_cmd) return run_cage(cli.cage_args);
+  if (*cli.inspect_cmd) return run_inspect(cli.bundle_path, cli.json);
+  if (*cli.verify_cmd) return run_verify(cli.verify_args);
+  if (*cli.status_cmd) return run_status(cli.status_args, cli.status_flags);
+  if (*cli.replication_cmd) {
+    const auto rows = bake::replication_study(cli.mesh, cli.cages, bake::BakeOptions{}.import);
+    std::fputs((cli.json ? bake::replication_json(rows) : bake::replication_table(rows)).c_str(), stdout);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  fissure::install_output_signal_handlers();
+  Cli cli;
+  CLI::App& app = cli.app;
+  app.set_version_flag("--version", fissure::bake::generator_string());
+  app.require_subcommand(1);
+  app.add_flag("-q,--quiet", cli.quiet, "Print only warnings, errors and the result");
+  app.add_flag("-v,--verbose", cli.verbose, "Print debug detail");
+  app.add_option("-j,--threads", cli.threads, "Worker threads (default: all cores)")->check(CLI::Range(0, kMaxThreads));
+  add_bake_command(cli);
+  add_cage_command(cli);
+  add_inspect_command(cli);
+  add_status_command(cli);
+  add_verify_command(cli);
+  add_replication_command(cli);
+  fissure::refuse_non_finite_numbers(app);
 
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return fissure::usage_exit_code(app, e);  // CLI11's own codes (105, 106, …) are not the contract's
   }
-  set_log_level(quiet ? LogLevel::Warning : (verbose ? LogLevel::Debug : LogLevel::Info));
+  set_log_level(cli.quiet ? LogLevel::Warning : (cli.verbose ? LogLevel::Debug : LogLevel::Info));
   std::unique_ptr<tbb::global_control> thread_limit;
-  if (threads > 0) {
+  if (cli.threads > 0) {
     thread_limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                         static_cast<std::size_t>(threads));
+                                                         static_cast<std::size_t>(cli.threads));
   }
-
   try {
-    if (*bake_cmd) {
-      return run_bake(mesh, cage, output, bake_flags.to_options());
-    }
-    if (*cage_cmd) return run_cage(cage_args);
-    if (*inspect_cmd) return run_inspect(bundle_path, json);
-    if (*verify_cmd) return run_verify(verify_args);
-    if (*status_cmd) return run_status(status_args, status_flags);
-    if (*replication_cmd) {
-      const auto rows = fissure::bake::replication_study(mesh, cages, fissure::bake::BakeOptions{}.import);
-      std::fputs((json ? fissure::bake::replication_json(rows) : fissure::bake::replication_table(rows)).c_str(), stdout);
-      return 0;
-    }
+    return run_command(cli);
   } catch (const fissure::Error& e) {
     std::fputs(fissure::format_error(e).c_str(), stderr);
     return 1;
@@ -379,5 +448,4 @@ int main(int argc, char** argv) {
                  e.what());
     return 2;
   }
-  return 0;
 }

@@ -5,12 +5,14 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <queue>
 #include <utility>
 #include <vector>
 
+#include "bake/progress.h"
 #include "bake/surface_distance.h"
 #include "common/error.h"
 
@@ -322,6 +324,23 @@ void check_tile_budget(std::size_t tiles, std::size_t res, std::size_t dres, con
   }
 }
 
+/// Each texel of a tile measures its distance to every contour segment on its face: a
+/// resolution set high (`--wall-res 4096`: 19 s for the 8 tiles of a 320-triangle
+/// sphere) is refused past options.max_work, with the estimate and the flag to force it.
+void check_wall_work(const formats::Bundle& b, const std::vector<FaceIndex>& tiled, const WallOptions& options) {
+  if (options.max_work == 0 || options.resolution <= WallOptions{}.resolution) return;
+  const double texels = static_cast<double>(options.resolution) * options.resolution;
+  double work = 0.0;
+  for (const FaceIndex f : tiled) {
+    work += texels * static_cast<double>(1 + b.embedding.contour_offsets[f + 1] - b.embedding.contour_offsets[f]);
+  }
+  if (work <= static_cast<double>(options.max_work)) return;
+  char text[200];
+  std::snprintf(text, sizeof text, "--wall-res %u implies about %.3g texel distance tests for %zu tiles, past the limit of %.3g",
+                options.resolution, work, tiled.size(), static_cast<double>(options.max_work));
+  throw Error(text, "lower --wall-res (the default is 64), or pass --no-work-limit to run it anyway");
+}
+
 }  // namespace
 
 formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, const WallOptions& options) {
@@ -337,15 +356,18 @@ formats::Walls bake_walls(const formats::Bundle& b, const FaceRegions& regions, 
   const std::vector<FaceIndex> tiled = assign_tiles(regions, w);
   const std::size_t res = options.resolution, dres = w.depth_resolution;
   check_tile_budget(tiled.size(), res, dres, options);
+  check_wall_work(b, tiled, options);
   w.sdf.assign(tiled.size() * res * res, 0);
   w.depth.assign(tiled.size() * dres * dres, 0);
 
   const SurfaceDistance surface(b.render);
   std::vector<double> max_depth(tiled.size(), 0.0);
   std::vector<float> depth_m(tiled.size() * dres * dres, 0.0f);
+  StageProgress progress("walls", "tiles", tiled.size());  // --wall-res 4096: 19 s for the 8 tiles of a small sphere
   tbb::parallel_for(std::size_t{0}, tiled.size(), [&](std::size_t tile) {
     rasterise_sdf(b, regions, tiled[tile], res, options.sdf_range_texels, &w.sdf[tile * res * res]);
     max_depth[tile] = rasterise_depth(b, regions, tiled[tile], surface, dres, &depth_m[tile * dres * dres]);
+    progress.advance();
   });
   double deepest = 0.0;
   for (const double d : max_depth) deepest = std::max(deepest, d);

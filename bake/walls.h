@@ -29,6 +29,10 @@ struct WallOptions {
   std::uint32_t detail_resolution = 128;
   std::uint64_t detail_seed = 1;
   std::size_t memory_budget_bytes = std::size_t{1} << 30;  ///< tiles larger than this are an error
+  /// The most texel-by-contour-segment distance tests a resolution above the default
+  /// may imply (about 15 s); 0: no limit (`--no-work-limit`). The default resolution is
+  /// never refused: its work follows from the mesh and the cage, not from a flag.
+  std::uint64_t max_work = 2'000'000'000;
 };
 
 /// Checks options before any work; throws fissure::Error naming the bad option.

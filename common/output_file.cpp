@@ -13,6 +13,7 @@
 #include <system_error>
 
 #include "common/error.h"
+#include "common/input_file.h"
 #include "common/log.h"
 
 namespace fissure {
@@ -78,6 +79,17 @@ void remove_stale_temporaries(const std::filesystem::path& path) {
   }
 }
 
+/// Writing renames a finished temporary over the output, which would replace a FIFO,
+/// a device or a socket with a regular file: as root, `-o /dev/null` would replace the
+/// system's /dev/null (issue 46). Such outputs are refused instead.
+void require_not_special(const std::filesystem::path& path, std::string_view option) {
+  const std::string kind = special_file_kind(path);
+  if (kind.empty()) return;
+  throw Error(std::string(option) + " " + path.string() + ": is " + kind +
+                  ", not a regular file; writing would replace it with a regular file",
+              "give the name of a regular file (or a new one); Fissure never writes to streams or devices");
+}
+
 bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
   std::error_code ec;
   return std::filesystem::equivalent(a, b, ec);
@@ -117,6 +129,7 @@ void check_output_path(const std::filesystem::path& path, const std::vector<std:
   if (std::filesystem::is_directory(path, ec)) {
     throw Error(where + ": is a directory", "give a file name inside it, e.g. " + (path / "out.h5").string());
   }
+  require_not_special(path, option);
   for (const auto& input : inputs) {
     if (same_file(path, input)) {
       throw Error(where + ": is the input " + input.string() + "; writing it would destroy the input",
@@ -144,6 +157,9 @@ TemporaryOutput::~TemporaryOutput() {
 }
 
 void TemporaryOutput::commit() {
+  // Checked before the work too (check_output_path); this is the last moment, in case
+  // one appeared meanwhile or the caller did not check.
+  require_not_special(m_final, "output");
   std::error_code ec;
   std::filesystem::rename(m_temporary, m_final, ec);
   if (ec) throw Error(m_final.string() + ": cannot move the finished file into place: " + ec.message());

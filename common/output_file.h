@@ -21,8 +21,9 @@ namespace fissure {
 void install_output_signal_handlers();
 
 /// Throws fissure::Error, before any work, when `path` (given as `option`, e.g. "-o")
-/// cannot be written: it is a directory, its folder is missing or not writable, or it
-/// is the same file as one of `inputs`. Removes stale temporaries of `path` left by
+/// cannot be written: it is a directory or an existing non-regular file (a FIFO, a
+/// device, a socket), its folder is missing or not writable, or it is the same file as
+/// one of `inputs`. Removes stale temporaries of `path` left by
 /// killed runs, with a warning.
 void check_output_path(const std::filesystem::path& path, const std::vector<std::filesystem::path>& inputs,
                        std::string_view option);
@@ -37,7 +38,8 @@ class TemporaryOutput {
   TemporaryOutput& operator=(const TemporaryOutput&) = delete;
 
   [[nodiscard]] const std::filesystem::path& path() const { return m_temporary; }
-  /// Renames the temporary over the final path. Throws fissure::Error naming it.
+  /// Renames the temporary over the final path. Throws fissure::Error naming it, also
+  /// when the final path is not a regular file (never replaced).
   void commit();
 
  private:

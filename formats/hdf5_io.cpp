@@ -10,6 +10,7 @@
 
 #include "common/child_probe.h"
 #include "common/error.h"
+#include "common/input_file.h"
 #include "common/output_file.h"
 
 namespace fissure::formats::h5 {
@@ -130,6 +131,7 @@ void write_file_atomically(const std::filesystem::path& path, const std::functio
 }
 
 Handle open_file_read_only(const std::string& path) {
+  fissure::require_regular_input(path);  // HDF5 would read a FIFO or /dev/zero without end
   silence_library_errors();
   if (H5Fis_hdf5(path.c_str()) <= 0) {
     throw Error(path + ": not an HDF5 file (or unreadable)", "check the path: bundles and trajectories are HDF5 files");
@@ -149,8 +151,17 @@ bool has_checksummed_metadata(const std::filesystem::path& path) {
 }
 
 void require_legacy_file_readable(const std::filesystem::path& path, const std::function<void()>& read_all) {
+  fissure::require_regular_input(path);
   if (inside_child_probe() || has_checksummed_metadata(path)) return;
-  const ChildProbeOutcome outcome = run_in_child(read_all);
+  // A budget, as for assimp (issue 46): reading a sound legacy bundle takes well under
+  // a second per 100 MiB, so a damaged one that loops or allocates without end stops.
+  std::error_code ec;
+  const double mib = static_cast<double>(std::filesystem::file_size(path, ec) >> 20);
+  ChildProbeLimits limits;
+  limits.wall_seconds = 10.0 + mib / 10.0;
+  limits.cpu_seconds = limits.wall_seconds + 2.0;
+  limits.memory_bytes = (std::uint64_t{2} << 30) + 16 * (std::uint64_t{1} << 20) * static_cast<std::uint64_t>(mib);
+  const ChildProbeOutcome outcome = run_in_child(read_all, limits);
   if (outcome.finished) return;
   throw Error(path.string() + ": damaged HDF5 file: reading it " + outcome.how + " inside the HDF5 library",
               "this file uses HDF5's legacy container, which has no checksums; a file written by this version "

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "common/error.h"
+#include "common/input_file.h"
 
 namespace fissure::formats {
 namespace {
@@ -477,12 +478,7 @@ PlyMesh parse_ply(std::string_view bytes, const std::string& name) {
 }
 
 PlyMesh read_ply(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path.string() + ": cannot open the file", "check the path and its permissions");
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  if (!in.good() && !in.eof()) throw Error(path.string() + ": cannot read the file");
-  return parse_ply(bytes.str(), path.string());
+  return parse_ply(read_input_file(path), path.string());
 }
 
 }  // namespace fissure::formats

@@ -7,20 +7,12 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/input_file.h"
 
 namespace fissure::formats {
 
 TextTokens::TextTokens(const std::filesystem::path& path) : m_file(path.string()) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    throw Error(m_file + ": file not found", "check the path; relative paths are resolved from the working directory");
-  }
-  if (std::filesystem::is_directory(path, ec)) throw Error(m_file + ": is a directory, not a file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(m_file + ": cannot open the file for reading");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  m_text = buffer.str();
+  m_text = read_input_file(path);
 
   std::size_t line = 1;
   std::size_t i = 0;

@@ -10,6 +10,7 @@
 #include <string>
 #include <tuple>
 
+#include "common/cli_numbers.h"
 #include "common/error.h"
 #include "common/log.h"
 #include "common/output_file.h"
@@ -66,7 +67,9 @@ CLI::App* add_run_command(CLI::App& app, RunArgs& a) {
   CLI::App* run = app.add_subcommand("run", "Simulate a scene file (see docs/scene-example.toml)");
   run->add_option("scene", a.scene_path, "Scene file (TOML)")->required();
   add_image_options(run, a);
-  run->add_option("--steps", a.options.steps, "Number of steps of solver.dt")->capture_default_str();
+  run->add_option("--steps", a.options.steps, "Number of steps of solver.dt (at most 1e9)")
+      ->check(CLI::Range(0L, 1'000'000'000L))  // 9e18 steps would run for ever
+      ->capture_default_str();
   run->add_option("--report", a.report, "Write a JSON report (timings per phase, energy, momentum, fragments, penetration)");
   run->add_option("--trajectory", a.trajectory, "Write node trajectories and fracture events (HDF5)");
   run->add_option("--trajectory-every", a.options.trajectory_every, "Record every k-th step in the trajectory")
@@ -152,6 +155,7 @@ int main(int argc, char** argv) {
   ViewArgs view_args;
   add_run_command(app, run_args);
   CLI::App* view = add_view_command(app, view_args);
+  fissure::refuse_non_finite_numbers(app);  // NaN passes CLI11's range checks
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -24,7 +24,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 # The machine-independent lines: the first without its wall time; no phase rows, no checks.
 stable() {
-  sed -E -e '/^phase +mean ms/d' -e '/^[a-z]+ +[0-9]+\.[0-9]+ +[0-9]+\.[0-9]+$/d' -e '/^checks /d' \
+  sed -E -e '/^phase +mean ms/d' -e '/^[a-z]+( +[0-9]+\.[0-9]+){2,3}$/d' -e '/^checks /d' \
     -e 's/ in [0-9.]+ s wall$/ in … s wall/'
 }
 awk '/<!-- sample-output/ {found = 1; next} found && /^```$/ {if (open) exit; open = 1; next} open' README.md \

@@ -15,6 +15,7 @@ and classifies each run:
   oom       ran out of the --mem-mib address space: stderr mentions bad_alloc / out of
             memory / cannot allocate (whatever the exit status or signal), or the program
             was SIGKILLed before the time limit (the kernel's OOM killer)
+  replaced  an output that was a FIFO, socket or device is something else afterwards
   other     any other exit status
 
 Every crash, hang, internal error and out-of-memory input is kept under
@@ -46,6 +47,9 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import fuzz_cli_inputs as inputs  # noqa: E402  (issue 46: more formats and fixed cases)
+
 DATA = Path(__file__).resolve().parent.parent / "data"
 CAGE_STEM = "bunny-5k-cage-10"
 
@@ -64,8 +68,18 @@ FORMATS = {
     "scene": (".toml", "scene", True),
     "bundle": (".h5", "bundle", False),
 }
-KINDS = ["ok", "error", "internal", "crash", "hang", "oom", "other"]
-SAVED_KINDS = ("internal", "crash", "hang", "oom")
+# Issue 46: the other formats the bake hands to assimp, each from its own seed, and
+# "assimp-any": a mutant of any mesh seed under any extension assimp claims.
+for _name, (_ext, _writer) in inputs.ASSIMP_SEEDS.items():
+    FORMATS[_name] = (_ext, "mesh", _name != "glb")
+FORMATS["assimp-any"] = ("", "mesh", False)
+MESH_SEEDS = ["obj", "stl-ascii", "stl-bin"] + list(inputs.ASSIMP_SEEDS)
+# Fixed cases, not mutations (fuzz_cli_inputs.py): streams and special files as inputs
+# and outputs, flags at their extremes, scenes and meshes with thousands of entries.
+for _name in inputs.FIXED_CLASSES:
+    FORMATS[_name] = ("", _name, False)
+KINDS = ["ok", "error", "internal", "crash", "hang", "oom", "replaced", "other"]
+SAVED_KINDS = ("internal", "crash", "hang", "oom", "replaced")
 OOM_RE = re.compile(r"bad_alloc|out of memory|cannot allocate memory|memory exhausted|std::length_error"
                     r"|failed to allocate|allocation fail", re.IGNORECASE)
 
@@ -924,6 +938,10 @@ class Campaign:
         for fmt, (name, data) in files.items():
             (s / name).write_bytes(data)
             self.seed_files[fmt] = s / name
+        for name, (ext, writer) in inputs.ASSIMP_SEEDS.items():
+            (s / ("seed" + ext)).write_bytes(writer(verts, faces))
+            self.seed_files[name] = s / ("seed" + ext)
+        self.seed_verts, self.seed_faces = verts, faces
         self.seed_mesh = s / "seed.obj"
         self.seed_cage = s / "cage.node"
         # The bundle: baked here with the given fissure-bake.
@@ -938,9 +956,52 @@ class Campaign:
         (s / "scene.toml").write_text(scene_text("../../seeds/seed.h5", self.centre, self.radius))
         self.seed_files["scene"] = s / "scene.toml"
         self.seed_data = {fmt: p.read_bytes() for fmt, p in self.seed_files.items()}
+        self.fixed = {name: make(self) for name, make in inputs.FIXED_CLASSES.items()}
         head, _ = ply_split(self.seed_data["ply-bin"])
         self.ctx_extra = {"ply_nv": len(verts), "ply_nf": len(faces), "header_len": len(head)}
         self.hdf5_regions = hdf5_regions(self.seed_data["bundle"])
+
+    def bake_argv(self, mesh, cage, out):
+        return [self.bake, "-q", "-j", "1", "bake", "--mesh", mesh, "--cage", cage, "-o", out]
+
+    def case_scene(self, case_dir):
+        """The seed scene in a case folder (work/<case>/), where its bundle path holds."""
+        path = case_dir / "scene.toml"
+        path.write_bytes(self.seed_data["scene"])
+        return path
+
+    def run_argv(self, scene, render=False, steps="3"):
+        return [self.player, "-q", "run", scene, "--steps", steps, "-j", "1"] + ([] if render else ["--no-render"])
+
+    def run_fixed_case(self, fmt, case):
+        desc, build = self.fixed[fmt][case]
+        case_dir = self.work / ("%s-%04d" % (fmt, case))
+        shutil.rmtree(case_dir, ignore_errors=True)
+        case_dir.mkdir(parents=True)
+        results = []
+        for label, argv, named, check in build(self, case_dir):
+            res = self.runner.run(argv, case_dir)
+            res["label"] = label
+            res["argv"] = [str(a) for a in argv]
+            res["names_file"] = named is None or named.name in res["stderr"] or named.name in res["stdout"]
+            problem = check()
+            if problem:
+                res["kind"], res["detail"] = "replaced", problem
+            results.append(res)
+        saved = []
+        if any(r["kind"] in SAVED_KINDS for r in results):
+            d = self.findings / fmt
+            d.mkdir(parents=True, exist_ok=True)
+            lines = ["class: %s" % fmt, "case:  %d: %s" % (case, desc), ""]
+            for r in results:
+                lines += ["$ " + " ".join(shquote(a) for a in r["argv"]),
+                          "-> %s (%s), %.2f s, peak RSS %s KiB" % (r["kind"], r["detail"], r["elapsed"], r["rss_kib"]),
+                          "stderr tail:", tail(r["stderr"], 20), ""]
+            (d / ("case-%04d.txt" % case)).write_text("\n".join(lines))
+            saved.append(str((d / ("case-%04d.txt" % case)).relative_to(self.out)))
+        shutil.rmtree(case_dir, ignore_errors=True)
+        return {"format": fmt, "case": case, "mutation": desc, "size": 0, "ran_rejected": False, "saved": saved,
+                "results": results}
 
     def commands(self, fmt, case_path, case_dir):
         """[(label, argv, path of the file the message should name)]"""
@@ -961,8 +1022,8 @@ class Campaign:
                 ("verify", [self.bake, "-q", "verify", case_path], case_path),
                 ("run", [self.player, "-q", "run", scene, "--steps", "3", "--no-render", "-j", "1"], case_path)]
 
-    def write_case(self, fmt, case, data):
-        ext = FORMATS[fmt][0]
+    def write_case(self, fmt, case, data, ext=None):
+        ext = ext or FORMATS[fmt][0]
         case_dir = self.work / ("%s-%04d" % (fmt, case))
         shutil.rmtree(case_dir, ignore_errors=True)
         case_dir.mkdir(parents=True)
@@ -975,14 +1036,22 @@ class Campaign:
         return case_dir, path
 
     def run_case(self, fmt, case):
+        if fmt in inputs.FIXED_CLASSES:
+            return self.run_fixed_case(fmt, case)
         rng = random.Random("%s:%s:%d" % (self.args.seed, fmt, case))
-        ctx = {"format": fmt, "text": FORMATS[fmt][2], **self.ctx_extra}
+        source, ext = fmt, None
+        if fmt == "assimp-any":
+            source = rng.choice(MESH_SEEDS)
+            ext = "." + rng.choice(inputs.ASSIMP_EXTENSIONS)
+        ctx = {"format": source, "text": FORMATS[source][2], **self.ctx_extra}
         if fmt == "bundle":
             ctx["regions"] = self.hdf5_regions
-        if fmt != "ply-bin":
+        if source != "ply-bin":
             ctx.pop("header_len", None)
-        data, desc = mutate(self.seed_data[fmt], fmt, rng, ctx)
-        case_dir, path = self.write_case(fmt, case, data)
+        data, desc = mutate(self.seed_data[source], source, rng, ctx)
+        if ext:
+            desc = "%s seed as %s: %s" % (source, ext, desc)
+        case_dir, path = self.write_case(fmt, case, data, ext)
         results = []
         for label, argv, named in self.commands(fmt, path, case_dir):
             res = self.runner.run(argv, case_dir)
@@ -1066,11 +1135,12 @@ def parse_cases(spec, formats):
     unknown = set(counts) - set(FORMATS)
     if unknown:
         sys.exit("fuzz-cli: unknown format in --cases: %s" % ", ".join(sorted(unknown)))
-    return {f: counts.get(f, default) for f in formats}
+    # A fixed class runs all its cases unless given a count of its own.
+    return {f: counts.get(f, -1 if f in inputs.FIXED_CLASSES else default) for f in formats}
 
 
 def row_key(fmt, label):
-    return fmt if FORMATS[fmt][1] != "bundle" else "%s:%s" % (fmt, label)
+    return "%s:%s" % (fmt, label) if FORMATS[fmt][1] in ("bundle", "special", "flags", "many") else fmt
 
 
 def summarise(records, counts):
@@ -1106,8 +1176,8 @@ def markdown(rows, meta):
                meta["seed"], meta["timeout"], meta["mem_mib"],
                ", ".join("%s=%d" % kv for kv in meta["cases"].items())), "",
            "| format | cases | ok | clean errors (name file) | internal (exit 2) | crashes | hangs | out of memory "
-           "| other | peak RSS max (MiB) | max s | notes |",
-           "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+           "| outputs replaced | other | peak RSS max (MiB) | max s | notes |",
+           "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for key, r in rows.items():
         notes = []
         if r["signals"]:
@@ -1116,9 +1186,9 @@ def markdown(rows, meta):
             notes.append("other " + ", ".join("%s×%d" % kv for kv in sorted(r["other_codes"].items())))
         if key.endswith(":run") and key.startswith("bundle"):
             notes.append("ran a bundle verify rejects: %d" % r["ran_rejected"])
-        out.append("| %s | %d | %d | %d (%d) | %d | %d | %d | %d | %d | %.1f | %.2f | %s |" % (
+        out.append("| %s | %d | %d | %d (%d) | %d | %d | %d | %d | %d | %d | %.1f | %.2f | %s |" % (
             key, r["cases"], r["ok"], r["error"], r["errors_naming_file"], r["internal"], r["crash"], r["hang"],
-            r["oom"], r["other"], r["peak_rss_kib"] / 1024.0, r["max_seconds"], "; ".join(notes)))
+            r["oom"], r["replaced"], r["other"], r["peak_rss_kib"] / 1024.0, r["max_seconds"], "; ".join(notes)))
     return "\n".join(out) + "\n"
 
 
@@ -1141,6 +1211,9 @@ def main():
     bad = [f for f in formats if f not in FORMATS]
     if bad:
         ap.error("unknown format(s): %s" % ", ".join(bad))
+    for program in (args.bake, args.player):
+        if not os.access(program, os.X_OK):
+            sys.exit("fuzz-cli: %s is not an executable (build it first)" % program)
     for tool in ("timeout", "prlimit"):
         if not shutil.which(tool):
             sys.exit("fuzz-cli: needs %s on PATH" % tool)
@@ -1149,9 +1222,15 @@ def main():
     counts = parse_cases(args.cases, formats)
     camp = Campaign(args)
     camp.prepare()
+    for fmt in formats:
+        if counts[fmt] < 0 or fmt in camp.fixed:
+            total = len(camp.fixed.get(fmt, []))
+            counts[fmt] = total if counts[fmt] < 0 else min(counts[fmt], total)
 
     # The seeds themselves must pass, or the campaign measures nothing.
     for fmt in formats:
+        if fmt not in camp.seed_data:
+            continue  # assimp-any and the fixed classes have no seed of their own
         case_dir, path = camp.write_case(fmt, -1, camp.seed_data[fmt])
         for label, argv, _ in camp.commands(fmt, path, case_dir):
             r = camp.runner.run(argv, case_dir)

@@ -7,7 +7,9 @@
 # window without a display.
 # clang and libclang-rt-14-dev (libFuzzer): the `fuzz` preset's targets (fuzz/).
 # time (GNU time): scripts/fuzz-cli.py measures each run's peak memory with it.
-# snakemake: the batch-baking workflow (pipelines/batch) and its test.
+# snakemake: the batch-baking workflow (pipelines/batch) and its test; python3-yaml: its
+# manifests, and the CI examples' lint (tests/pipelines/ci_examples_test.py), which also
+# runs shellcheck on their scripts (actionlint is not packaged for Debian 12).
 # python3-matplotlib: the trade-study's plots (pipelines/tradeoffs) and its test.
 # libopenblas0-serial: CHOLMOD's dense kernels; serial so that it neither fights TBB's
 # threads nor changes results with the thread count (the reference BLAS is 3× slower).
@@ -25,7 +27,7 @@ packages=(
   libssl-dev
   libsuitesparse-dev libopenblas0-serial
   libbullet-dev
-  snakemake python3-matplotlib
+  snakemake python3-yaml shellcheck python3-matplotlib
 )
 
 missing=()

@@ -21,6 +21,9 @@
 # `fissure-bake` on the PATH.
 
 include_guard(GLOBAL)
+# The per-bundle bake script beside this file (CMAKE_CURRENT_LIST_DIR inside a function
+# is the caller's folder, so it is kept here).
+set(_FISSURE_BAKE_BUNDLE_SCRIPT "${CMAKE_CURRENT_LIST_DIR}/FissureBakeBundle.cmake")
 
 function(_fissure_bake_tool out_command out_depends)
   if(FISSURE_BAKE_EXECUTABLE)
@@ -40,44 +43,23 @@ function(_fissure_bake_tool out_command out_depends)
   endif()
 endfunction()
 
-# The bake's custom command and target, shared by both kinds of cage.
-macro(_fissure_add_bundle_target)
-  if(ARG_ALL)
-    add_custom_target(${name} ALL DEPENDS "${output}")
-  else()
-    add_custom_target(${name} DEPENDS "${output}")
+# The cage file given (absolute) and the files the bake reads for it: both halves of a
+# TetGen pair, so both are dependencies.
+function(_fissure_cage_files out_cage out_files)
+  cmake_path(ABSOLUTE_PATH ARG_CAGE BASE_DIRECTORY "${CMAKE_CURRENT_SOURCE_DIR}" NORMALIZE OUTPUT_VARIABLE cage)
+  if(NOT EXISTS "${cage}")
+    message(FATAL_ERROR "fissure_add_bundle(${name}): cage ${cage} does not exist")
   endif()
-  set_target_properties(${name} PROPERTIES FISSURE_BUNDLE "${output}")
-endmacro()
-
-# fissure_add_bundle with TETS: the cage is made from the mesh by the bake; the count
-# and method go into the options stamp, so changing either re-bakes.
-function(_fissure_add_bundle_made_cage name)
-  cmake_path(ABSOLUTE_PATH ARG_MESH BASE_DIRECTORY "${CMAKE_CURRENT_SOURCE_DIR}" NORMALIZE OUTPUT_VARIABLE mesh)
-  cmake_path(ABSOLUTE_PATH ARG_OUTPUT BASE_DIRECTORY "${CMAKE_CURRENT_BINARY_DIR}" NORMALIZE OUTPUT_VARIABLE output)
-  if(NOT EXISTS "${mesh}")
-    message(FATAL_ERROR "fissure_add_bundle(${name}): mesh ${mesh} does not exist")
+  set(files "${cage}")
+  cmake_path(GET cage EXTENSION LAST_ONLY extension)
+  string(TOLOWER "${extension}" extension)
+  if(extension STREQUAL ".node" OR extension STREQUAL ".ele")
+    cmake_path(REPLACE_EXTENSION cage LAST_ONLY ".node" OUTPUT_VARIABLE node)
+    cmake_path(REPLACE_EXTENSION cage LAST_ONLY ".ele" OUTPUT_VARIABLE ele)
+    set(files "${node}" "${ele}")
   endif()
-  set(cage_flags --tets "${ARG_TETS}")
-  if(ARG_METHOD)
-    list(APPEND cage_flags --method "${ARG_METHOD}")
-  endif()
-  set(stamp "${CMAKE_CURRENT_BINARY_DIR}/fissure-bundles/${name}.options")
-  file(CONFIGURE OUTPUT "${stamp}" CONTENT "${cage_flags} ${ARG_OPTIONS}\n")
-  _fissure_bake_tool(bake bake_depends)
-  set(temporary "${output}.building.h5")
-  cmake_path(GET output PARENT_PATH output_folder)
-  cmake_path(GET mesh FILENAME mesh_name)
-  add_custom_command(
-    OUTPUT "${output}"
-    COMMAND "${CMAKE_COMMAND}" -E make_directory "${output_folder}"
-    COMMAND "${bake}" -q bake --mesh "${mesh}" ${cage_flags} -o "${temporary}" ${ARG_OPTIONS}
-    COMMAND "${bake}" -q verify "${temporary}"
-    COMMAND "${CMAKE_COMMAND}" -E rename "${temporary}" "${output}"
-    DEPENDS "${mesh}" "${stamp}" ${bake_depends}
-    COMMENT "Baking bundle ${name}: ${mesh_name} in an automatic cage of ${ARG_TETS} tets"
-    VERBATIM)
-  _fissure_add_bundle_target()
+  set(${out_cage} "${cage}" PARENT_SCOPE)
+  set(${out_files} "${files}" PARENT_SCOPE)
 endfunction()
 
 function(fissure_add_bundle name)
@@ -94,54 +76,66 @@ function(fissure_add_bundle name)
   if(ARG_METHOD AND NOT ARG_TETS)
     message(FATAL_ERROR "fissure_add_bundle(${name}): METHOD chooses how TETS makes the cage; add TETS")
   endif()
-  if(ARG_TETS)
-    _fissure_add_bundle_made_cage(${name})
-    return()
-  endif()
   if(ARG_UNPARSED_ARGUMENTS)
     message(FATAL_ERROR "fissure_add_bundle(${name}): unknown arguments ${ARG_UNPARSED_ARGUMENTS}; "
                         "bake flags go after OPTIONS")
   endif()
 
   cmake_path(ABSOLUTE_PATH ARG_MESH BASE_DIRECTORY "${CMAKE_CURRENT_SOURCE_DIR}" NORMALIZE OUTPUT_VARIABLE mesh)
-  cmake_path(ABSOLUTE_PATH ARG_CAGE BASE_DIRECTORY "${CMAKE_CURRENT_SOURCE_DIR}" NORMALIZE OUTPUT_VARIABLE cage)
   cmake_path(ABSOLUTE_PATH ARG_OUTPUT BASE_DIRECTORY "${CMAKE_CURRENT_BINARY_DIR}" NORMALIZE OUTPUT_VARIABLE output)
-  foreach(input mesh cage)
-    if(NOT EXISTS "${${input}}")
-      message(FATAL_ERROR "fissure_add_bundle(${name}): ${input} ${${input}} does not exist")
+  if(NOT EXISTS "${mesh}")
+    message(FATAL_ERROR "fissure_add_bundle(${name}): mesh ${mesh} does not exist")
+  endif()
+  if(ARG_TETS)
+    # A cage made from the mesh: the count and method are options like any other.
+    set(cage_files "")
+    set(cage_arguments "-DTETS=${ARG_TETS}")
+    if(ARG_METHOD)
+      list(APPEND cage_arguments "-DMETHOD=${ARG_METHOD}")
     endif()
-  endforeach()
+    set(cage_name "an automatic cage of ${ARG_TETS} tets")
+  else()
+    _fissure_cage_files(cage cage_files)
+    set(cage_arguments "-DCAGE=${cage}")
+    cmake_path(GET cage FILENAME cage_name)
+  endif()
 
-  # A TetGen cage is two files; the bake reads both, so both are dependencies.
-  set(cage_files "${cage}")
-  cmake_path(GET cage EXTENSION LAST_ONLY cage_extension)
-  string(TOLOWER "${cage_extension}" cage_extension)
-  if(cage_extension STREQUAL ".node" OR cage_extension STREQUAL ".ele")
-    cmake_path(REPLACE_EXTENSION cage LAST_ONLY ".node" OUTPUT_VARIABLE node)
-    cmake_path(REPLACE_EXTENSION cage LAST_ONLY ".ele" OUTPUT_VARIABLE ele)
-    set(cage_files "${node}" "${ele}")
+  # OPTIONS "--wall-res 16" (one quoted string) is the flags of OPTIONS --wall-res 16.
+  set(options "")
+  foreach(option IN LISTS ARG_OPTIONS)
+    separate_arguments(words UNIX_COMMAND "${option}")
+    list(APPEND options ${words})
+  endforeach()
+  if(options MATCHES "[|]")
+    message(FATAL_ERROR "fissure_add_bundle(${name}): OPTIONS cannot hold a | (${options})")
   endif()
 
   # The options live in a stamp file rewritten only when they change, so editing them
   # re-bakes under every generator (Make does not track command lines, Ninja does).
   set(stamp "${CMAKE_CURRENT_BINARY_DIR}/fissure-bundles/${name}.options")
-  file(CONFIGURE OUTPUT "${stamp}" CONTENT "${ARG_OPTIONS}\n")
+  set(stamp_content "${options}")
+  if(ARG_TETS)
+    set(stamp_content "--tets ${ARG_TETS} --method ${ARG_METHOD} ${options}")
+  endif()
+  file(CONFIGURE OUTPUT "${stamp}" CONTENT "${stamp_content}\n")
 
   _fissure_bake_tool(bake bake_depends)
-  # Baked to a temporary name, verified, then renamed: the bundle is never half-made
-  # or unverified, and a failure keeps the previous one out of date, so it runs again.
-  set(temporary "${output}.building.h5")
-  cmake_path(GET output PARENT_PATH output_folder)
+  # Baked to a temporary name, verified, then renamed (FissureBakeBundle.cmake): the
+  # bundle is never half-made or unverified, and a failure keeps the previous one out of
+  # date, so it runs again.
+  string(REPLACE ";" "|" joined_options "${options}")
   cmake_path(GET mesh FILENAME mesh_name)
-  cmake_path(GET cage FILENAME cage_name)
   add_custom_command(
     OUTPUT "${output}"
-    COMMAND "${CMAKE_COMMAND}" -E make_directory "${output_folder}"
-    COMMAND "${bake}" -q bake --mesh "${mesh}" --cage "${cage}" -o "${temporary}" ${ARG_OPTIONS}
-    COMMAND "${bake}" -q verify "${temporary}"
-    COMMAND "${CMAKE_COMMAND}" -E rename "${temporary}" "${output}"
+    COMMAND "${CMAKE_COMMAND}" "-DFISSURE_BAKE=${bake}" "-DMESH=${mesh}" ${cage_arguments} "-DOUTPUT=${output}"
+            "-DOPTIONS=${joined_options}" -P "${_FISSURE_BAKE_BUNDLE_SCRIPT}"
     DEPENDS "${mesh}" ${cage_files} "${stamp}" ${bake_depends}
     COMMENT "Baking bundle ${name}: ${mesh_name} in ${cage_name}"
     VERBATIM)
-  _fissure_add_bundle_target()
+  if(ARG_ALL)
+    add_custom_target(${name} ALL DEPENDS "${output}")
+  else()
+    add_custom_target(${name} DEPENDS "${output}")
+  endif()
+  set_target_properties(${name} PROPERTIES FISSURE_BUNDLE "${output}")
 endfunction()

@@ -3,12 +3,14 @@ one figure. A plot whose CSV files are missing is skipped, so a partial run stil
 what it measured."""
 
 import csv
+import math
 from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")  # no display: the plots are files
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
+from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter  # noqa: E402
 
 WARPED, EXACT = "tab:blue", "tab:red"
 DEFAULTS = "0.5"  # the grey of the lines marking the player's and the bake's defaults
@@ -19,6 +21,8 @@ DEFAULTS = "0.5"  # the grey of the lines marking the player's and the bake's de
 THESIS_TABLE_II = ((10, 5715), (20, 6231), (31, 6629), (41, 6880), (50, 6907), (60, 7057), (72, 7328),
                    (82, 7472), (91, 7472), (100, 7586))
 THESIS_TRIANGLES = 5000
+DEFAULT_STEPS_PER_S = 240     # the player's dt, 1/240 s
+DEFAULT_TOLERANCE = 1e-4      # solver.tolerance, CG with the lagged Cholesky preconditioner
 
 
 def read(folder: Path, name: str) -> list:
@@ -40,8 +44,54 @@ def figure(columns: int, title: str):
     return fig, axes[0]
 
 
-def save(fig, path: Path) -> None:
+def number(value: float, _position=None) -> str:
+    """A tick label: plain digits where they stay short, else 2e-05."""
+    if value == 0:
+        return "0"
+    if 1e-3 <= abs(value) < 1e5:
+        return f"{value:g}"
+    return f"{value:.0e}".replace("e-0", "e-").replace("e+0", "e+")
+
+
+def readable_axes(fig) -> None:
+    """Every log axis labelled densely enough to read values off (issue 45: one label per
+    decade could not be read): linear where the data span less than a decade; else labels
+    at 1, 2, 5 × 10ⁿ (up to 2.5 decades), 1 and 3 (up to 4.5), or each decade with
+    unlabelled minor ticks between. Axes with ticks at the swept values are left alone."""
+    for ax in fig.axes:
+        for name, axis, limits in (("x", ax.xaxis, ax.dataLim.intervalx), ("y", ax.yaxis, ax.dataLim.intervaly)):
+            if axis.get_scale() != "log" or isinstance(axis.get_major_locator(), FixedLocator):
+                continue
+            low, high = (float(v) for v in limits)
+            if not (0 < low < high) or not math.isfinite(high):
+                continue
+            decades = math.log10(high / low)
+            if decades < 1:
+                (ax.set_xscale if name == "x" else ax.set_yscale)("linear")
+                axis.set_major_formatter(FuncFormatter(number))
+                continue
+            subs = (1.0, 2.0, 5.0) if decades <= 2.5 else (1.0, 3.0) if decades <= 4.5 else (1.0,)
+            axis.set_major_locator(LogLocator(base=10, subs=subs, numticks=40))
+            axis.set_major_formatter(FuncFormatter(number))
+            axis.set_minor_locator(LogLocator(base=10, subs=[m for m in range(2, 10) if m not in subs], numticks=40))
+            axis.set_minor_formatter(NullFormatter())
+        ax.autoscale_view()
+
+
+def mark_default_point(ax, x: float, y: float, label: str = "default") -> None:
+    """The default's point on an accuracy-against-cost chart: a ring and its name."""
+    ax.plot([x], [y], "o", markersize=13, markerfacecolor="none", markeredgecolor="k", label=label)
+    ax.annotate(label, (x, y), xytext=(8, -12), textcoords="offset points", fontsize=8)
+
+
+def finish(fig) -> None:
+    """What every figure gets before it is written: readable axes, a tight layout."""
+    readable_axes(fig)
     fig.tight_layout()
+
+
+def save(fig, path: Path) -> None:
+    finish(fig)
     fig.savefig(path, dpi=90)
     plt.close(fig)
 
@@ -61,20 +111,26 @@ def mark_default(ax, x: float, label: str = "default") -> None:
 
 
 def walls(folder: Path):
-    rows = read(folder, "walls.csv")
+    rows = sorted(read(folder, "walls.csv"), key=lambda r: float(r["resolution"]))
     if not rows:
         return None
     res = column(rows, "resolution")
-    fig, (error, cost) = figure(2, "Wall tile resolution (bunny-5k, 987-tet cage)")
-    error.loglog(res, column(rows, "coverage_error"), "o-")
+    error_values, mib = column(rows, "coverage_error"), column(rows, "walls_stored_mib")
+    fig, (error, seconds, memory, tradeoff) = figure(4, "Wall tile resolution (bunny-5k, 987-tet cage)")
+    error.loglog(res, error_values, "o-")
     error.set(xlabel="tile resolution (texels)", ylabel="coverage error (relative area)", title="what it buys")
-    cost.loglog(res, column(rows, "walls_stage_s"), "o-", label="bake: walls stage, s")
-    cost.loglog(res, column(rows, "walls_stored_mib"), "s-", label="bundle: /walls, MiB")
-    cost.set(xlabel="tile resolution (texels)", ylabel="s  /  MiB", title="what it costs")
-    cost.legend()
-    for ax in (error, cost):
+    seconds.loglog(res, column(rows, "walls_stage_s"), "o-")
+    seconds.set(xlabel="tile resolution (texels)", ylabel="s", title="bake: walls stage")
+    memory.loglog(res, mib, "s-")
+    memory.set(xlabel="tile resolution (texels)", ylabel="MiB", title="bundle: /walls")
+    for ax in (error, seconds, memory):
         ticks_at(ax, res, lambda r: f"{int(r)}²")
         mark_default(ax, 64)
+    tradeoff.loglog(mib, error_values, "o-")
+    label_points(tradeoff, mib, error_values, [f"{int(r)}²" for r in res])
+    if 64 in res:
+        mark_default_point(tradeoff, mib[res.index(64)], error_values[res.index(64)])
+    tradeoff.set(xlabel="bundle: /walls, MiB", ylabel="coverage error (relative area)", title="accuracy against cost")
     return "walls.png", fig
 
 
@@ -85,7 +141,7 @@ def contacts(folder: Path):
     exact = [r for r in player if r["collision_points"] == "vertices"]
     if not bake_rows and not spheres:
         return None
-    fig, (count, depth, cost) = figure(3, "Collision sphere radius (bunny-5k, 987-tet cage; ×1 = a fifth of the median cage edge)")
+    fig, (count, depth, cost, tradeoff) = figure(4, "Collision sphere radius (bunny-5k, 987-tet cage; ×1 = a fifth of the median cage edge)")
     if bake_rows:
         count.semilogx(column(bake_rows, "radius_over_default"), column(bake_rows, "spheres"), "o-")
     count.set(xlabel="target radius ÷ default", ylabel="spheres", title="spheres the bake makes")
@@ -108,7 +164,26 @@ def contacts(folder: Path):
         mark_default(ax, 1.0)
     depth.legend()
     cost.legend()
+    accuracy_against_cost_contacts(tradeoff, spheres, exact)
     return "contacts.png", fig
+
+
+def accuracy_against_cost_contacts(ax, spheres: list, exact: list) -> None:
+    """Deepest penetration against the collision phase's time, one point per radius."""
+    if spheres:
+        x, y = column(spheres, "collisions_ms_mean"), [1e3 * v for v in column(spheres, "vertex_penetration_max_m")]
+        ax.plot(x, y, "o", label="spheres")  # no line: the radii do not order the cost
+        factors = column(spheres, "radius_over_default")
+        label_points(ax, x, y, [f"×{f:g}" for f in factors])
+        if 1.0 in factors:
+            mark_default_point(ax, x[factors.index(1.0)], y[factors.index(1.0)])
+    if exact:
+        ax.plot([float(exact[0]["collisions_ms_mean"])], [1e3 * float(exact[0]["vertex_penetration_max_m"])], "s",
+                color=EXACT, label="every render vertex (exact)")
+    ax.set(xlabel="collision phase, ms per step (mean, 1 thread)", ylabel="deepest render vertex, mm",
+           title="accuracy against cost")
+    ax.set_ylim(bottom=0)
+    ax.legend()
 
 
 def cages(folder: Path):
@@ -173,7 +248,11 @@ def dt(folder: Path):
             x, y = column(rs, "wall_s_per_simulated_s"), column(rs, "rms_error_relative")
             ax.loglog(x, y, "o-", color=colour, label=f"{model} stiffness")
             label_points(ax, x, y, [f"1/{round(1 / float(r['dt_s']))}" for r in rs])
-        ax.set(xlabel="wall s per simulated s", ylabel="RMS node error ÷ RMS displacement", title=case)
+            default = [i for i, r in enumerate(rs) if round(1 / float(r["dt_s"])) == DEFAULT_STEPS_PER_S]
+            if model == "warped" and default:
+                mark_default_point(ax, x[default[0]], y[default[0]], "default (1/240, warped)")
+        ax.set(xlabel="wall s per simulated s", ylabel="RMS node error ÷ RMS displacement",
+               title=f"{case}: accuracy against cost")
         ax.legend()
     return "dt.png", fig
 
@@ -190,10 +269,14 @@ def tolerance(folder: Path):
             x, y = column(rs, "wall_s_per_simulated_s"), column(rs, "error_vs_direct")
             ax.loglog(x, y, marker, label=solver.replace("cg-", "CG, ").replace("-", " "))
             label_points(ax, x, y, [f"{float(r['tolerance']):.0e}" for r in rs])
+            default = [i for i, r in enumerate(rs) if float(r["tolerance"]) == DEFAULT_TOLERANCE]
+            if solver == "cg-lagged-cholesky" and default:
+                mark_default_point(ax, x[default[0]], y[default[0]], "default (1e-4)")
         direct = [r for r in rows if r["case"] == case and r["solver"] == "direct"]
         if direct:
             ax.axvline(float(direct[0]["wall_s_per_simulated_s"]), color="k", linestyle="--", label="direct solver")
-        ax.set(xlabel="wall s per simulated s", ylabel="RMS error against the direct solve, same dt", title=case)
+        ax.set(xlabel="wall s per simulated s", ylabel="RMS error against the direct solve, same dt",
+               title=f"{case}: accuracy against cost")
         ax.legend()
     return "tolerance.png", fig
 
@@ -202,13 +285,20 @@ def spin(folder: Path):
     rows = read(folder, "spin.csv")
     if not rows:
         return None
-    fig, (energy, tip) = figure(2, "Exact vs warped stiffness: a free beam spinning at 10 rad/s for 0.5 s")
+    fig, (energy, tip, tradeoff) = figure(3, "Exact vs warped stiffness: a free beam spinning at 10 rad/s for 0.5 s")
     for model, colour in (("warped", WARPED), ("exact", EXACT)):
         rs = sorted((r for r in rows if r["stiffness"] == model), key=lambda r: float(r["rad_per_step"]))
         x = column(rs, "rad_per_step")
         energy.semilogx(x, column(rs, "peak_energy_ratio"), "o-", color=colour, label=f"{model}: peak")
         energy.semilogx(x, column(rs, "final_energy_ratio"), "s--", color=colour, label=f"{model}: at the end")
         tip.loglog(x, column(rs, "tip_error_m"), "o-", color=colour, label=model)
+        # The knob is the model; rotation per step is the scene's. The default model is warped.
+        cost, error = column(rs, "ms_per_step"), column(rs, "tip_error_m")
+        tradeoff.loglog(cost, error, "o-" if model == "warped" else "s--", color=colour,
+                        label=f"{model} (default)" if model == "warped" else model)
+        label_points(tradeoff, cost, error, [f"{r:g} rad" for r in x])
+    tradeoff.set(xlabel="ms per step", ylabel="tip error, m", title="accuracy against cost (points: rad per step)")
+    tradeoff.legend()
     for ax in (energy, tip):
         ticks_at(ax, column(rows, "rad_per_step"), lambda r: f"{r:g}")
     energy.axhline(1.0, color=DEFAULTS, linewidth=1)

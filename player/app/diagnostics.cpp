@@ -15,6 +15,22 @@ namespace fissure::player {
 namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+std::string obstacle_name(const sim::ObstacleHit& hit) {
+  switch (hit.kind) {
+    case sim::ObstacleHit::Kind::Ground: return "the ground";
+    case sim::ObstacleHit::Kind::Box: return "box " + std::to_string(hit.index);
+    case sim::ObstacleHit::Kind::Ball: return "sphere " + std::to_string(hit.index);
+    case sim::ObstacleHit::Kind::Projectile: return "projectile " + std::to_string(hit.index);
+    case sim::ObstacleHit::Kind::None: break;
+  }
+  return "nothing";
+}
+
+std::string describe(const sim::World& world, const sim::World::DeepestVertex& v) {
+  return "vertex " + std::to_string(v.vertex) + " of '" + world.bodies()[v.body].name + "' (fragment " +
+         std::to_string(v.fragment) + ") in " + obstacle_name(v.hit);
+}
 }  // namespace
 
 double Diagnostics::total_energy(const sim::World& world) {
@@ -42,9 +58,13 @@ void Diagnostics::on_step(const sim::World& world, const sim::StepReport& report
   // What a viewer would see penetrate, only where something can be penetrated.
   if (world.settings().collisions) {
     sphere_penetration_final = world.sphere_penetration();
-    vertex_penetration_final = world.vertex_penetration();
+    const sim::World::DeepestVertex deepest = world.deepest_vertex();
+    vertex_penetration_final = deepest.hit.depth;
     sphere_penetration_max = std::max(sphere_penetration_max, sphere_penetration_final);
-    vertex_penetration_max = std::max(vertex_penetration_max, vertex_penetration_final);
+    if (vertex_penetration_final > vertex_penetration_max) {
+      vertex_penetration_max = vertex_penetration_final;
+      vertex_penetration_where = describe(world, deepest);
+    }
   }
   energy_final = total_energy(world);
   energy_max = std::max(energy_max, energy_final);

@@ -6,6 +6,7 @@
 /// them), and their own time is measured.
 
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "player/app/run_loop.h"
@@ -29,6 +30,9 @@ class Diagnostics : public RunObserver {
   Vec3 angular_initial = Vec3::Zero(), angular_final = Vec3::Zero();
   double sphere_penetration_max = 0, vertex_penetration_max = 0;      ///< [m]
   double sphere_penetration_final = 0, vertex_penetration_final = 0;  ///< [m]
+  /// Where the deepest render vertex of the run was: "vertex 812 of 'bunny' (fragment 3)
+  /// in the ground"; empty if none sank.
+  std::string vertex_penetration_where;
   double seconds = 0;  ///< spent in these checks [s]
   /// The share of the energy put in that a run may gain before it is stopped: rounding,
   /// and CG solves that stop at their tolerance, move the total by far less.

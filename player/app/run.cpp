@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "common/error.h"
+#include "common/input_file.h"
 #include "common/log.h"
 #include "common/output_file.h"
 #include "player/app/diagnostics.h"
@@ -110,7 +111,17 @@ void check_outputs(const formats::Scene& scene, const RunOptions& options) {
   const auto& frames = options.images.frames;
   std::error_code ec;
   if (!frames.empty() && std::filesystem::exists(frames, ec) && !std::filesystem::is_directory(frames, ec)) {
-    throw Error("--frames " + frames.string() + ": is a file, not a folder", "give a folder for the frames");
+    const std::string kind = special_file_kind(frames);
+    throw Error("--frames " + frames.string() + ": is " + (kind.empty() ? "a file" : kind) + ", not a folder",
+                "give a folder for the frames");
+  }
+  if (!frames.empty() && std::filesystem::is_directory(frames, ec)) {
+    // The frames replace files of the same name: never a FIFO or a device left there.
+    for (const auto& entry : std::filesystem::directory_iterator(frames, ec)) {
+      const std::string name = entry.path().filename().string();
+      if (name != "frames.json" && !(name.rfind("frame-", 0) == 0 && entry.path().extension() == ".png")) continue;
+      check_output_path(entry.path(), inputs, "--frames");
+    }
   }
 }
 

@@ -26,6 +26,7 @@ void write_vec(JsonWriter& json, const char* name, const Vec3& v) {
 void write_phase(JsonWriter& json, const char* name, const PhaseStats& p, long steps) {
   json.key(name).begin_object();
   json.key("mean_ms").value(1e3 * per_step(p.total, steps));
+  json.key("p99_ms").value(1e3 * p.quantile(0.99));
   json.key("max_ms").value(1e3 * p.max);
   json.key("total_s").value(p.total);
   json.end_object();
@@ -122,6 +123,7 @@ void write_summary(JsonWriter& json, const sim::World& world, const RunRecord& r
     json.key("sphere_penetration_final_m").value(run.diagnostics->sphere_penetration_final);
     json.key("vertex_penetration_max_m").value(run.diagnostics->vertex_penetration_max);
     json.key("vertex_penetration_final_m").value(run.diagnostics->vertex_penetration_final);
+    json.key("vertex_penetration_where").value(run.diagnostics->vertex_penetration_where);
   }
   json.key("solver_iterations_mean").value(per_step(static_cast<double>(s.iterations), run.end.steps));
   json.key("factorizations").value(static_cast<std::int64_t>(s.factorizations));
@@ -137,11 +139,13 @@ void print_summary(const sim::World& world, const RunRecord& run) {
   const long steps = run.end.steps;
   std::printf("%ld steps of %.6g s (%.4g s simulated) in %.3f s wall\n", steps, world.settings().step.dt, world.time(),
               run.end.wall_seconds);
-  std::printf("phase        mean ms    max ms\n");
+  std::printf("phase        mean ms    p99 ms    max ms\n");
   const std::pair<const char*, const PhaseStats*> rows[] = {
       {"forces", &s.forces},         {"assembly", &s.assembly},     {"solve", &s.solve},
       {"fracture", &s.fracture},     {"collisions", &s.collisions}, {"step", &s.step}};
-  for (const auto& [name, p] : rows) std::printf("%-10s %9.3f %9.3f\n", name, 1e3 * per_step(p->total, steps), 1e3 * p->max);
+  for (const auto& [name, p] : rows) {
+    std::printf("%-10s %9.3f %9.3f %9.3f\n", name, 1e3 * per_step(p->total, steps), 1e3 * p->quantile(0.99), 1e3 * p->max);
+  }
   if (const Diagnostics* d = run.diagnostics; d != nullptr) {
     std::printf("energy     %.6g J -> %.6g J (max %.6g J; kinetic + elastic + gravity), %.6g J put in\n",
                 d->energy_initial, d->energy_final, d->energy_max, d->energy_put_in);
@@ -159,6 +163,9 @@ void print_summary(const sim::World& world, const RunRecord& run) {
   if (run.diagnostics != nullptr) {
     std::printf(", penetration max: spheres %.3g m, render vertices %.3g m", run.diagnostics->sphere_penetration_max,
                 run.diagnostics->vertex_penetration_max);
+    if (!run.diagnostics->vertex_penetration_where.empty()) {
+      std::printf(" (%s)", run.diagnostics->vertex_penetration_where.c_str());
+    }
   }
   std::printf("\nresponse  %.1f conjugate-gradient iterations/step inside the implicit step",
               per_step(static_cast<double>(s.response_iterations), steps));

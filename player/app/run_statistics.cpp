@@ -1,12 +1,23 @@
 #include "player/app/run_statistics.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace fissure::player {
 
 void PhaseStats::add(double seconds) {
   total += seconds;
   max = std::max(max, seconds);
+  samples.push_back(seconds);
+}
+
+double PhaseStats::quantile(double q) const {
+  if (samples.empty()) return 0.0;
+  std::vector<double> sorted = samples;
+  const auto rank = static_cast<std::size_t>(std::ceil(std::clamp(q, 0.0, 1.0) * static_cast<double>(sorted.size())));
+  const auto k = std::min(sorted.size() - 1, rank > 0 ? rank - 1 : 0);
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
+  return sorted[k];
 }
 
 void RunStatistics::on_start(const sim::World& world) {

@@ -12,7 +12,11 @@ namespace fissure::player {
 
 struct PhaseStats {
   double total = 0, max = 0;  ///< [s]
+  std::vector<double> samples;  ///< [s] every step's, for percentiles (8 bytes a step)
   void add(double seconds);
+  /// The q-quantile of the steps' times [s] (q ∈ [0, 1]; nearest rank), 0 with no step.
+  /// A real-time budget is about the slow steps, not only the mean (issue 42: p99).
+  [[nodiscard]] double quantile(double q) const;
 };
 
 class RunStatistics : public RunObserver {

@@ -152,19 +152,44 @@ sim::BodyDescription describe(const formats::Scene& scene, std::size_t index, co
   return d;
 }
 
+/// What a scene may load in all (issue 46): 256 overlapping bunnies held 3 GB before
+/// their first step. About 2 GB of physics and contact state at most; the sample
+/// bunny has 987 tets and 6,787 spheres, so ~150 of them fit.
+constexpr std::size_t kMaxSceneSpheres = 1'000'000;
+constexpr std::size_t kMaxSceneTets = 1'000'000;
+
+/// Adds object `i`'s bundle to the scene's totals; throws naming the object, the count
+/// and the limit when a total passes its limit.
+void count_scene_size(const formats::Scene& scene, std::size_t i, const formats::Bundle& bundle, std::size_t& spheres,
+                      std::size_t& tets) {
+  spheres += bundle.collision ? bundle.collision->sphere_tet.size() : 0;
+  tets += bundle.cage.tet_count();
+  const auto refuse = [&](const char* what, std::size_t count, std::size_t limit) {
+    throw Error(scene.file.string() + ":" + std::to_string(scene.objects[i].line) + ": object[" + std::to_string(i) +
+                    "] brings the scene to " + std::to_string(count) + " " + what + ", more than the " +
+                    std::to_string(limit) + " a scene may hold (" + std::to_string(scene.objects.size()) + " objects)",
+                "use fewer objects, or bundles baked with a coarser cage or a larger --sphere-radius");
+  };
+  if (spheres > kMaxSceneSpheres) refuse("collision spheres", spheres, kMaxSceneSpheres);
+  if (tets > kMaxSceneTets) refuse("cage tets", tets, kMaxSceneTets);
+}
+
 }  // namespace
 
 LoadedScene load_scene(const formats::Scene& scene) {
   std::vector<sim::BodyDescription> bodies;
   std::vector<BodyAssets> assets;
+  std::size_t total_spheres = 0, total_tets = 0;
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const formats::SceneObject& object = scene.objects[i];
-    if (!std::filesystem::exists(object.bundle)) {
+    std::error_code ec;  // a link loop or an unreadable folder is read_bundle's error, not an exception here
+    if (!std::filesystem::exists(object.bundle, ec) && !ec) {
       throw Error(scene.file.string() + ":" + std::to_string(object.line) + ": object[" + std::to_string(i) +
                       "].bundle " + object.bundle.string() + " does not exist",
                   "paths are relative to the scene file's folder; bake the bundle with `fissure-bake bake` first");
     }
     formats::Bundle bundle = read_checked_bundle(scene, i);
+    count_scene_size(scene, i, bundle, total_spheres, total_tets);
     bodies.push_back(describe(scene, i, bundle));
     assets.push_back({object.bundle.filename().string(), std::move(bundle), object.scale, object.color, object.interior_color});
   }

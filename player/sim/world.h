@@ -266,7 +266,14 @@ class World {
   /// Deepest penetration [m] of any body's collision spheres, or of any render vertex,
   /// into obstacles and projectiles: the second is what a viewer sees (thesis VI.B.1).
   [[nodiscard]] double sphere_penetration() const;
-  [[nodiscard]] double vertex_penetration() const;
+  [[nodiscard]] double vertex_penetration() const { return deepest_vertex().hit.depth; }
+  /// Where render vertices sink deepest: the vertex, its body and fragment, and the
+  /// obstacle it is in (hit.kind None, depth 0, when none is in any).
+  struct DeepestVertex {
+    Index body = 0, vertex = 0, fragment = 0;
+    ObstacleHit hit;
+  };
+  [[nodiscard]] DeepestVertex deepest_vertex() const;
 
  private:
   /// The state before a step, to put back when it fails.

@@ -84,15 +84,19 @@ double World::sphere_penetration() const {
   return depth;
 }
 
-double World::vertex_penetration() const {
-  double depth = 0.0;
-  for (const Body& b : m_bodies) {
+World::DeepestVertex World::deepest_vertex() const {
+  DeepestVertex deepest;
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+    const Body& b = m_bodies[bi];
     for (std::size_t k = 0; k < b.vertices.size(); ++k) {
       const Vec3 p = embedded_position(b.integrator().positions(), b.integrator().elasticity().tets(), b.vertices, k);
-      depth = std::max(depth, penetration(p, 0.0, m_environment, m_projectiles));
+      const ObstacleHit hit = deepest_obstacle(p, 0.0, m_environment, m_projectiles);
+      if (hit.depth > deepest.hit.depth) {
+        deepest = {static_cast<Index>(bi), static_cast<Index>(k), b.topology.tet_fragment()[b.vertices.tet[k]], hit};
+      }
     }
   }
-  return depth;
+  return deepest;
 }
 
 }  // namespace fissure::sim

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/input_file.h"
 
 namespace fissure::view {
 
@@ -129,11 +130,7 @@ std::vector<ScriptAction> parse_script(const std::string& text, const std::strin
 }
 
 std::vector<ScriptAction> read_script(const std::filesystem::path& path) {
-  std::ifstream file(path);
-  if (!file) throw Error("cannot read the script " + path.string(), "check the path");
-  std::ostringstream text;
-  text << file.rdbuf();
-  return parse_script(text.str(), path.string());
+  return parse_script(read_input_file(path, std::uint64_t{64} << 20), path.string());
 }
 
 }  // namespace fissure::view

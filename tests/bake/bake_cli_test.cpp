@@ -162,8 +162,11 @@ TEST_F(BakePipeline, AMissingInputIsExit4AndOutranksStale) {
   std::filesystem::remove(dir / "assets" / "m.obj");
   const Result r = run("status --json " + quoted(bundle) + " " + quoted(dir / "out" / "never-baked.h5"));
   EXPECT_EQ(r.exit_code, 4) << r.output;
-  EXPECT_NE(r.output.find("\"state\":\"missing-input\",\"reasons\":[\"mesh " + (dir / "assets" / "m.obj").string() + " not found\"]"),
+  EXPECT_NE(r.output.find("\"state\":\"missing-input\",\"reasons\":[\"mesh " + (dir / "assets" / "m.obj").string() + " not found"),
             std::string::npos)
+      << r.output;
+  // Issue 45: a bundle copied away from its inputs is told how to point at them.
+  EXPECT_NE(r.output.find("if the bundle was copied away from its inputs, pass --mesh and --cage)\"]"), std::string::npos)
       << r.output;
   // A bundle from before schema 1.2 does not know where its inputs were.
   const Result old = run("status " + quoted(std::filesystem::path(FISSURE_TEST_FILES_DIR) / "two-tet-schema-1.1.h5"));
@@ -213,6 +216,40 @@ TEST_F(BakePipeline, VerifyChecksBudgetsOverManyBundlesAndWritesJunit) {
   // The report never replaces a bundle.
   EXPECT_EQ(run("verify " + quoted(bundle) + " --junit " + quoted(bundle)).exit_code, 1);
   EXPECT_EQ(run("verify " + quoted(bundle)).exit_code, 0);
+}
+
+// Issue 45: the verdict tells a sound bundle over a budget from a broken one, and -q's
+// failure lines name their bundle (a CI log interleaves many).
+TEST_F(BakePipeline, VerifySaysOverBudgetNotInvalidAndQuietLinesNameTheBundle) {
+  const Result r = run("-q verify " + quoted(bundle) + " --max-tiles 10");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find(bundle.string() + ": FAIL  budget:tiles "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(bundle.string() + ": over budget (invariants hold)\n"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("INVALID"), std::string::npos) << r.output;
+}
+
+// Issue 45: `verify --status` adds a "status" case per bundle, so the JUnit report fails
+// exactly when `status` does (a stale bundle, a missing input) and passes otherwise.
+TEST_F(BakePipeline, VerifyStatusPutsStaleAndMissingInputsInTheJunitReport) {
+  const auto junit = dir / "report.xml";
+  Result r = run("-q verify --status " + quoted(bundle) + " --junit " + quoted(junit));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  std::string xml = bytes_of(junit);
+  EXPECT_NE(xml.find("failures=\"0\" errors=\"0\">"), std::string::npos) << xml;
+  EXPECT_NE(xml.find("name=\"status\"><system-out>inputs, options and bake version match"), std::string::npos) << xml;
+
+  std::ofstream(dir / "assets" / "c.ele", std::ios::app) << "# edited\n";
+  r = run("-q verify --status " + quoted(bundle) + " --junit " + quoted(junit));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find(bundle.string() + ": stale (re-bake it) (invariants hold)"), std::string::npos) << r.output;
+  xml = bytes_of(junit);
+  EXPECT_NE(xml.find("name=\"status\">\n      <failure message=\"stale; cage "), std::string::npos) << xml;
+  EXPECT_NE(xml.find("failures=\"1\" errors=\"0\">"), std::string::npos) << xml;
+
+  std::filesystem::remove(dir / "assets" / "m.obj");
+  r = run("-q verify --status " + quoted(bundle) + " --junit " + quoted(junit));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(bytes_of(junit).find("<failure message=\"missing-input; mesh "), std::string::npos) << bytes_of(junit);
 }
 
 // A real bake interrupted at moments spread over its run (reading, embedding, writing):

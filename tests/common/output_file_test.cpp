@@ -6,12 +6,14 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <functional>
 
 #include "common/error.h"
+#include "common/input_file.h"
 #include "tests/support/temp_dir.h"
 
 namespace fissure {
@@ -103,6 +105,58 @@ TEST(OutputFile, ChecksRemoveOnlyTemporariesWhoseRunIsGone) {
   EXPECT_FALSE(std::filesystem::exists(stale));
   EXPECT_TRUE(std::filesystem::exists(live));
   EXPECT_TRUE(std::filesystem::exists(other));
+}
+
+// Issue 46: the rename that makes a write atomic replaced whatever the output named, so
+// -o FIFO left a regular file in its place (and as root, -o /dev/null would replace the
+// system's /dev/null). Checking /dev/null only stats it: nothing is written there.
+TEST(OutputFile, FifosDevicesAndSocketsAreRefusedAndNeverReplaced) {
+  testing::TempDir dir;
+  const auto fifo = dir / "out.h5";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const auto message_of = [](const std::function<void()>& f) -> std::string {
+    try {
+      f();
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(message_of([&] { check_output_path(fifo, {}, "-o"); }),
+            "-o " + fifo.string() + ": is a FIFO (named pipe), not a regular file; writing would replace it with a "
+            "regular file");
+  EXPECT_EQ(message_of([&] { check_output_path("/dev/null", {}, "--report"); }),
+            "--report /dev/null: is a character device, not a regular file; writing would replace it with a regular "
+            "file");
+  // The last line of defence, for a caller that did not check first.
+  EXPECT_NE(message_of([&] { write_file_atomically(fifo, "bytes"); }).find("is a FIFO"), std::string::npos);
+  EXPECT_TRUE(std::filesystem::is_fifo(fifo));
+  EXPECT_EQ(files_in(dir.path()), 1u);  // no temporary left beside it
+}
+
+TEST(InputFile, StreamsAndDevicesAreRefusedBeforeOpeningAndSizesAreCapped) {
+  testing::TempDir dir;
+  const auto fifo = dir / "scene.toml";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  // Opening a FIFO without a writer blocks: the refusal must come before.
+  EXPECT_THROW(read_input_file(fifo), Error);
+  EXPECT_THROW(read_input_file("/dev/zero"), Error);
+  try {
+    read_input_file("/dev/zero");
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "/dev/zero: is a character device, not a regular file; Fissure reads inputs only "
+                                     "from regular files");
+  }
+  std::filesystem::create_symlink("loop", dir / "loop");
+  try {
+    read_input_file(dir / "loop");
+    ADD_FAILURE() << "a link to itself was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot be read: Too many levels of symbolic links"), std::string::npos);
+  }
+  const auto text = dir.write("small.txt", std::string(100, 'x'));
+  EXPECT_EQ(read_input_file(text).size(), 100u);
+  EXPECT_THROW(read_input_file(text, 99), Error);
 }
 
 }  // namespace

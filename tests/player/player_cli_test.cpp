@@ -2,6 +2,8 @@
 // its report and trajectory, and the errors a user meets.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <cstdio>
 #include <fstream>
 
@@ -228,6 +230,81 @@ TEST_F(PlayerCli, BadRunOptionsAreErrors) {
   const auto result = player("run " + quoted(scene("")) + " --no-render --steps -3");
   EXPECT_EQ(result.exit_code, 1);
   EXPECT_NE(result.output.find("--steps"), std::string::npos) << result.output;
+}
+
+// Issue 46: outputs that are FIFOs, devices or sockets were replaced by regular files
+// (as root, --report /dev/null would replace the system's /dev/null).
+TEST_F(PlayerCli, OutputsThatAreNotRegularFilesAreRefusedBeforeTheRun) {
+  const auto fifo = dir.path() / "out.fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string run = "run " + quoted(scene("")) + " --steps 5 ";
+  for (const char* option : {"--report", "--trajectory", "--video"}) {
+    const auto result = player(run + (std::string(option) == "--video" ? "" : "--no-render ") + option + " " + quoted(fifo));
+    EXPECT_EQ(result.exit_code, 1) << option << "\n" << result.output;
+    EXPECT_NE(result.output.find(std::string(option) + " " + fifo.string() + ": is a FIFO (named pipe), not a regular file"),
+              std::string::npos)
+        << result.output;
+    EXPECT_EQ(result.output.find("bodies,"), std::string::npos) << "the scene loaded before the check\n" << result.output;
+    EXPECT_TRUE(std::filesystem::is_fifo(fifo)) << option << " replaced the FIFO";
+  }
+  auto result = player(run + "--frames " + quoted(fifo));
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("is a FIFO (named pipe), not a folder"), std::string::npos) << result.output;
+  // A frame the run would write over, left as a FIFO in the frames folder.
+  std::filesystem::create_directory(dir.path() / "frames");
+  ASSERT_EQ(::mkfifo((dir.path() / "frames" / "frames.json").c_str(), 0600), 0);
+  result = player(run + "--frames " + quoted(dir.path() / "frames"));
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("frames.json: is a FIFO"), std::string::npos) << result.output;
+  EXPECT_TRUE(std::filesystem::is_fifo(dir.path() / "frames" / "frames.json"));
+}
+
+TEST_F(PlayerCli, ScenesAndBundlesThatAreStreamsOrDevicesAreRefused) {
+  // A scene that is /dev/zero read until memory ran out (exit 2 after ~18 s).
+  std::filesystem::create_symlink("/dev/zero", dir.path() / "zero.toml");
+#if defined(__SANITIZE_ADDRESS__)
+  const std::string limit;  // ASan reserves terabytes of address space at start
+#else
+  const std::string limit = "ulimit -v 3145728; ";
+#endif
+  auto result = testing::run_command(limit + "exec timeout 30 " + std::string(FISSURE_PLAYER_EXE) + " run " +
+                                     quoted(dir.path() / "zero.toml") + " --no-render --steps 1");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("zero.toml: is a character device, not a regular file"), std::string::npos) << result.output;
+  ASSERT_EQ(::mkfifo((dir.path() / "fifo.h5").c_str(), 0600), 0);
+  const auto path = dir.path() / "fifo-scene.toml";
+  std::ofstream(path) << "[[object]]\nbundle = \"fifo.h5\"\n";
+  result = testing::run_command("exec timeout 30 " + std::string(FISSURE_PLAYER_EXE) + " run " + quoted(path) +
+                                " --no-render --steps 1");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("fifo.h5: is a FIFO (named pipe), not a regular file"), std::string::npos) << result.output;
+}
+
+TEST_F(PlayerCli, ScenesWithThousandsOfEntriesAreRefusedWithTheCountAndTheLimit) {
+  // 1,001 overlapping objects ran out of memory within two steps; 1,000 projectiles or
+  // 100,000 boxes took over 20 s for 40 steps.
+  std::string objects;
+  for (int i = 0; i < 256; ++i) objects += "[[object]]\nbundle = \"two.h5\"\n";
+  auto result = player("run " + quoted(scene("", objects)) + " --no-render --steps 1");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("object: 257 [[object]] sections, more than the 256 a scene may hold"), std::string::npos)
+      << result.output;
+  std::string boxes;
+  for (int i = 0; i < 4097; ++i) boxes += "[[environment.box]]\nmin = [0, 0, 0]\nmax = [1, 1, 1]\n";
+  result = player("run " + quoted(scene("", boxes)) + " --no-render --steps 1");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("4097 [[environment.box]] sections, more than the 4096"), std::string::npos)
+      << result.output;
+}
+
+TEST_F(PlayerCli, NonFiniteFlagsAreUsageErrors) {
+  for (const char* flag : {"--tessellation nan", "--tessellation inf", "--tessellation -nan"}) {
+    const auto result = player("run " + quoted(scene("")) + " --steps 1 --no-render " + flag);
+    EXPECT_EQ(result.exit_code, 1) << flag << "\n" << result.output;
+    // NaN passes CLI11's range check (comparisons with NaN are false); inf does not.
+    const bool nan = std::string(flag).find("nan") != std::string::npos;
+    EXPECT_NE(result.output.find(nan ? "is not a finite number" : "not in range"), std::string::npos) << result.output;
+  }
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // The run loop: the fixed-step accumulator and how observers see a run.
 #include "player/app/run_loop.h"
+#include "player/app/run_statistics.h"
 
 #include <gtest/gtest.h>
 
@@ -114,6 +115,19 @@ TEST(RunLoop, AnObserverCanStopTheRunAndEveryoneHearsWhy) {
   EXPECT_EQ(watcher.last_end.steps, 5);
   EXPECT_TRUE(loop.advance(1.0).failed);  // a stopped loop takes no more steps
   EXPECT_EQ(world->time(), 5.0 / 240.0);
+}
+
+// The report's p99 is a nearest-rank quantile of every step's time: 1..100 ms gives
+// 99 ms, the extremes the minimum and the maximum, and a run of no step 0.
+TEST(RunStatistics, PhaseQuantilesAreNearestRank) {
+  PhaseStats p;
+  EXPECT_EQ(p.quantile(0.99), 0.0);
+  for (int i = 100; i >= 1; --i) p.add(1e-3 * i);
+  EXPECT_DOUBLE_EQ(p.quantile(0.99), 0.099);
+  EXPECT_DOUBLE_EQ(p.quantile(1.0), 0.100);
+  EXPECT_DOUBLE_EQ(p.quantile(0.0), 0.001);
+  EXPECT_DOUBLE_EQ(p.quantile(0.5), 0.050);
+  EXPECT_DOUBLE_EQ(p.max, 0.100);
 }
 
 }  // namespace

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <map>
+#include <string>
+
+#include "common/error.h"
 
 namespace fissure::sim {
 
@@ -55,10 +58,23 @@ std::vector<Candidate> candidates_near_other_pieces(std::span<const std::vector<
   return candidates;
 }
 
+/// Bodies piled into one another (a scene placing many objects at one spot) make every
+/// point meet every other: the pairs, and the contacts made from them, would grow with
+/// the square of the points until memory runs out (issue 46). Past the limit the step
+/// stops with an error that says how many bodies and points were involved.
+[[noreturn]] void throw_too_many_pairs(const std::vector<Candidate>& candidates, std::size_t max_pairs) {
+  Index bodies = 0;
+  for (const Candidate& c : candidates) bodies = std::max(bodies, c.body + 1);
+  throw Error("collision: more than " + std::to_string(max_pairs) + " pairs of collision spheres overlap at once (" +
+                  std::to_string(candidates.size()) + " spheres of up to " + std::to_string(bodies) +
+                  " bodies are near one another): the bodies are piled inside each other",
+              "place the objects apart from one another in the scene (translation), or use fewer of them");
+}
+
 }  // namespace
 
 std::vector<PointPair> self_collision_pairs(std::span<const std::vector<SweptPoint>> sweeps,
-                                            std::span<const std::vector<Index>> piece) {
+                                            std::span<const std::vector<Index>> piece, std::size_t max_pairs) {
   std::vector<Candidate> candidates = candidates_near_other_pieces(sweeps, piece);
   // 2. Sweep along the axis where the candidates spread most; ties in a fixed order,
   // so the pairs (and the contacts) do not depend on anything but the state.
@@ -78,6 +94,7 @@ std::vector<PointPair> self_collision_pairs(std::span<const std::vector<SweptPoi
     for (std::size_t j = i + 1; j < candidates.size() && candidates[j].box.min[axis] <= ci.box.max[axis]; ++j) {
       const Candidate& cj = candidates[j];
       if (cj.piece == ci.piece || !ci.box.overlaps(cj.box)) continue;
+      if (pairs.size() == max_pairs) throw_too_many_pairs(candidates, max_pairs);
       if (std::pair{ci.body, ci.point} < std::pair{cj.body, cj.point}) {
         pairs.emplace_back(ci.body, ci.point, cj.body, cj.point);
       } else {

@@ -212,29 +212,31 @@ std::optional<double> time_of_impact(const Vec3& a0, const Vec3& a1, const Vec3&
   return std::max(s, 0.0);
 }
 
-double penetration(const Vec3& point, double radius, const Environment& environment,
-                   std::span<const Projectile> projectiles) {
-  double depth = 0.0;
+ObstacleHit deepest_obstacle(const Vec3& point, double radius, const Environment& environment,
+                             std::span<const Projectile> projectiles) {
+  ObstacleHit hit;
+  const auto consider = [&](double depth, ObstacleHit::Kind kind, std::size_t index) {
+    if (depth > hit.depth) hit = {kind, static_cast<Index>(index), depth};
+  };
   if (environment.ground) {
-    depth = std::max(depth, radius - (environment.ground->normal.dot(point) - environment.ground->offset));
+    consider(radius - (environment.ground->normal.dot(point) - environment.ground->offset), ObstacleHit::Kind::Ground, 0);
   }
-  for (const Box& box : environment.boxes) {
+  for (std::size_t k = 0; k < environment.boxes.size(); ++k) {
+    const Box& box = environment.boxes[k];
     const Vec3 inside_distance = (point - box.min).cwiseMin(box.max - point);
     const double inner = inside_distance.minCoeff();
-    if (inner > 0.0) {
-      depth = std::max(depth, radius + inner);
-    } else {
-      const double gap = (point.cwiseMax(box.min).cwiseMin(box.max) - point).norm();
-      depth = std::max(depth, radius - gap);
-    }
+    const double gap = inner > 0.0 ? 0.0 : (point.cwiseMax(box.min).cwiseMin(box.max) - point).norm();
+    consider(inner > 0.0 ? radius + inner : radius - gap, ObstacleHit::Kind::Box, k);
   }
-  for (const Ball& ball : environment.balls) {
-    depth = std::max(depth, radius + ball.radius - (point - ball.center).norm());
+  for (std::size_t k = 0; k < environment.balls.size(); ++k) {
+    const Ball& ball = environment.balls[k];
+    consider(radius + ball.radius - (point - ball.center).norm(), ObstacleHit::Kind::Ball, k);
   }
-  for (const Projectile& p : projectiles) {
-    if (p.launched) depth = std::max(depth, radius + p.radius - (point - p.position).norm());
+  for (std::size_t k = 0; k < projectiles.size(); ++k) {
+    const Projectile& p = projectiles[k];
+    if (p.launched) consider(radius + p.radius - (point - p.position).norm(), ObstacleHit::Kind::Projectile, k);
   }
-  return depth;
+  return hit;
 }
 
 namespace {

@@ -117,9 +117,23 @@ std::size_t resist_rolling(std::span<CollisionBody> bodies, const Environment& e
 std::optional<double> time_of_impact(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1,
                                      double distance);
 
+/// Which obstacle a point is deepest in.
+struct ObstacleHit {
+  enum class Kind : std::uint8_t { None, Ground, Box, Ball, Projectile } kind = Kind::None;
+  Index index = 0;    ///< which box, ball or projectile
+  double depth = 0;   ///< [m], 0 when clear
+};
+
+/// The obstacle or launched projectile a ball of `radius` at `point` is deepest inside,
+/// and how deep (depth 0, kind None when clear).
+ObstacleHit deepest_obstacle(const Vec3& point, double radius, const Environment& environment,
+                             std::span<const Projectile> projectiles);
+
 /// How deep a ball of `radius` at `point` is inside the environment's obstacles or the
 /// launched projectiles (0 when clear) [m].
-double penetration(const Vec3& point, double radius, const Environment& environment,
-                   std::span<const Projectile> projectiles);
+inline double penetration(const Vec3& point, double radius, const Environment& environment,
+                          std::span<const Projectile> projectiles) {
+  return deepest_obstacle(point, radius, environment, projectiles).depth;
+}
 
 }  // namespace fissure::sim
