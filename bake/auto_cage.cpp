@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <stdexcept>
 
 #include "bake/bake.h"
 #include "bake/cage_quality.h"
@@ -213,7 +214,14 @@ AutoCage make_cage(const SurfaceMesh& input, const AutoCageOptions& options, con
   // Inside/outside must agree with the bake's, which orients the surface first.
   SurfaceMesh mesh = input;
   orient_surface(mesh);
-  return options.method == "wrap" ? wrap_cage(mesh, options, mesh_name) : lattice_cage(mesh, options, mesh_name, winding_accuracy);
+  if (options.method != "wrap") return lattice_cage(mesh, options, mesh_name, winding_accuracy);
+  try {
+    return wrap_cage(mesh, options, mesh_name);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {  // a CGAL precondition on input it cannot wrap or mesh
+    throw Error(mesh_name + ": the wrap cage could not be made: " + e.what(), "use --method lattice for this mesh");
+  }
 }
 
 }  // namespace fissure::bake
