@@ -174,24 +174,32 @@ AutoCage wrap_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, cons
   Vec3 lo = mesh.positions.rowwise().minCoeff(), hi = mesh.positions.rowwise().maxCoeff();
   // A first cell from the box: Mesh_3's tets of circumradius r hold about r³/2 each,
   // and a solid fills roughly a third of its box.
-  const double estimate = std::cbrt((hi - lo).prod() / 3.0 / (0.5 * static_cast<double>(options.tets)));
+  double estimate = std::cbrt((hi - lo).prod() / 3.0 / (0.5 * static_cast<double>(options.tets)));
   AutoCage cage;
   cage.method = options.method;
   WrapParameters parameters;
   double cell = estimate;
   for (double grow = 1.0;; grow *= 1.5) {
     // A larger clearance makes a larger envelope: the cell is searched again for it.
-    parameters = wrap_parameters(estimate, grow);
-    const SurfaceWrap wrap(mesh, parameters);
-    cell = search_wrap_cell(wrap, parameters, estimate, options, cage.tries);
-    cage.mesh = wrap.mesh_at(cell, facet_distance(parameters, cell), true);
+    // An envelope whose surface alone needs more tets than asked (a thin or detailed
+    // shape: the box's estimate is too fine) is made coarser, twice at most.
+    for (int coarser = 0;; ++coarser, estimate *= 1.6) {
+      parameters = wrap_parameters(estimate, grow);
+      const SurfaceWrap wrap(mesh, parameters);
+      cell = search_wrap_cell(wrap, parameters, estimate, options, cage.tries);
+      cage.mesh = wrap.mesh_at(cell, facet_distance(parameters, cell), true);
+      if (lands(cage.mesh.tet_count(), options) || cage.mesh.tet_count() < options.tets || coarser == 2) break;
+    }
     cage.cell = cell;
     if (!lands(cage.mesh.tet_count(), options)) throw_missed(mesh_name, options, cage.mesh.tet_count(), cell, cage.tries);
     try {
       check_cage_covers(mesh, cage.mesh, mesh_name, "the wrap cage");
       break;
     } catch (const Error& e) {
-      if (grow > 2.0) throw;
+      if (grow > 2.0) {
+        throw Error(mesh_name + ": the wrap cage misses part of the surface even at 2.25× its clearance: " + e.what(),
+                    "use --method lattice (it holds the surface by construction), or ask for more tets");
+      }
       log_warning(std::string("the wrap cage missed part of the surface; growing its clearance and trying again: ") + e.what());
     }
   }
