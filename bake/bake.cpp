@@ -303,6 +303,12 @@ std::string BakeOptions::to_json() const {
     j.key("sphere_radius").value(spheres.radius);
     j.key("sphere_max_halvings").value(spheres.max_halvings);
   }
+  if (cage.enabled()) {
+    j.key("cage_method").value(cage.method);
+    j.key("cage_tets").value(static_cast<std::uint64_t>(cage.tets));
+    j.key("cage_tolerance").value(cage.tolerance);
+    j.key("cage_version").value(kAutoCageVersion);
+  }
   j.end_object();
   return j.str();
 }
@@ -373,6 +379,39 @@ formats::Bundle bake_files(const std::filesystem::path& mesh_path, const std::fi
             : cage.node_path.filename().string(),
        pair ? sha256_hex({cage.node_path, cage.element_path}) : sha256_hex({cage.node_path}), ""});
   return bundle;
+}
+
+formats::Bundle bake_with_auto_cage(const std::filesystem::path& mesh_path, const BakeOptions& options,
+                                    BakeStats* stats) {
+  BakeStats local;
+  BakeStats& s = stats ? *stats : local;
+  validate(options.cage);
+  const auto start = Clock::now();
+  const ImportedMesh imported = import_render_mesh(mesh_path, options.import);
+  s.import_s = seconds_since(start);
+  log_stage("read", mesh_path.filename().string() + ": " + std::to_string(imported.mesh.vertex_count()) + " vertices, " +
+                        std::to_string(imported.mesh.triangle_count()) + " triangles",
+            s.import_s);
+  const AutoCage cage = make_cage(imported.mesh, options.cage, mesh_path.string(), options.winding_accuracy);
+  const std::string cage_name = "the automatic " + cage.method + " cage";
+  formats::Bundle bundle = embed(imported.mesh, cage.mesh, options, mesh_path.string(), cage_name, &s);
+  bundle.metadata.generator = generator_string();
+  bundle.metadata.bake_options = options.to_json();
+  // The cage is no file: the mesh, the options and the version say all that made it.
+  bundle.metadata.inputs.push_back({"mesh", mesh_path.filename().string(), sha256_hex({mesh_path}), ""});
+  return bundle;
+}
+
+void check_cage_covers(const SurfaceMesh& mesh, const TetMesh& cage, const std::string& mesh_name,
+                       const std::string& cage_name) {
+  require_inside_cage_bounds(mesh, cage, mesh_name, cage_name);
+  const CageFaces faces = build_cage_faces(cage, cage_name);
+  const TriangleTetPairs pairs = assign_triangles(mesh, cage, faces);
+  formats::Embedding embedding;
+  embedding.instance_triangle = pairs.triangle;
+  embedding.instance_tet = pairs.tet;
+  embedding.instance_barycentric = pairs.barycentric;
+  require_coverage(mesh, cage, embedding, BakeOptions{}.coverage_tolerance, mesh_name, cage_name);
 }
 
 }  // namespace fissure::bake

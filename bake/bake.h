@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <string>
 
+#include "bake/auto_cage.h"
 #include "bake/collision_proxies.h"
 #include "bake/mesh_import.h"
 #include "bake/walls.h"
@@ -28,6 +29,8 @@ struct BakeOptions {
   bool collision = true;
   WallOptions wall;
   SphereOptions spheres;
+  /// An automatic cage made from the mesh (`--tets N`) instead of a cage file.
+  AutoCageOptions cage;
 
   /// The options that shape the bundle's content, as a JSON object (stored in it).
   [[nodiscard]] std::string to_json() const;
@@ -59,6 +62,16 @@ formats::Bundle embed(const SurfaceMesh& mesh, const TetMesh& cage, const BakeOp
 /// Reads both inputs, embeds, records input hashes and options, and returns the bundle.
 formats::Bundle bake_files(const std::filesystem::path& mesh_path, const std::filesystem::path& cage_path,
                            const BakeOptions& options, BakeStats* stats = nullptr);
+
+/// Reads the mesh, makes its automatic cage (options.cage), embeds, and records the
+/// mesh's hash and the options, the cage's method, count and version among them.
+formats::Bundle bake_with_auto_cage(const std::filesystem::path& mesh_path, const BakeOptions& options,
+                                    BakeStats* stats = nullptr);
+
+/// Checks exactly, as the bake does (assign and coverage stages), that `cage` holds
+/// every point of `mesh` once. Throws fissure::Error naming both otherwise.
+void check_cage_covers(const SurfaceMesh& mesh, const TetMesh& cage, const std::string& mesh_name,
+                       const std::string& cage_name);
 
 /// The generator string stored in bundles, e.g. "fissure-bake 0.1.0".
 std::string generator_string();

@@ -138,7 +138,14 @@ BundleStatus bundle_status(const fs::path& bundle, const StatusQuery& query) {
   }
   try {
     check_input(status, metadata, "mesh", query.mesh);
-    check_input(status, metadata, "cage", query.cage);
+    // An automatic cage is no file: the mesh, the options (method, count, cage version)
+    // and the bake's version, all compared here, are what made it.
+    const bool automatic = metadata.bake_options.find("\"cage_method\"") != std::string::npos;
+    if (!automatic) {
+      check_input(status, metadata, "cage", query.cage);
+    } else if (query.cage) {
+      mark(status, BundleState::Stale, "baked on an automatic cage, not on " + query.cage->string());
+    }
   } catch (const Error& e) {  // an input that exists but cannot be read
     mark(status, BundleState::MissingInput, e.what());
   }

@@ -12,7 +12,9 @@
 #include <memory>
 #include <vector>
 
+#include "bake/auto_cage.h"
 #include "bake/bake.h"
+#include "bake/cage_quality.h"
 #include "bake/bundle_status.h"
 #include "bake/replication.h"
 #include "common/cli_numbers.h"
@@ -24,6 +26,7 @@
 #include "formats/bundle_inspect.h"
 #include "formats/bundle.h"
 #include "formats/cage_io.h"
+#include "formats/cage_write.h"
 #include "formats/junit.h"
 
 namespace {
@@ -46,6 +49,8 @@ struct BakeFlags {
   double wall_budget_mib = static_cast<double>(bake::WallOptions{}.memory_budget_bytes >> 20);
   std::optional<double> sphere_radius;
   double winding_accuracy = bake::BakeOptions{}.winding_accuracy;
+  std::string tets;  ///< as typed, parsed by bake::parse_tet_count
+  std::string method = bake::AutoCageOptions{}.method;
   std::vector<CLI::Option*> options;  ///< to tell whether any was given
 
   void add_to(CLI::App* command) {
@@ -64,11 +69,21 @@ struct BakeFlags {
                             "Fast winding-number accuracy beta (larger = more exact, slower)")
             ->check(CLI::Range(1.0, 100.0))
             ->capture_default_str(),
+        command->add_option("--tets", tets, "Make the cage from the mesh, with about this many tets (±15 %), instead of --cage"),
+        command->add_option("--method", method,
+                            "How --tets makes the cage: lattice (trimmed cubes, fast) or wrap (alpha wrap + Mesh_3, "
+                            "shape-following)")
+            ->capture_default_str(),
     };
   }
 
   [[nodiscard]] bool any_given() const {
     return std::any_of(options.begin(), options.end(), [](const CLI::Option* o) { return o->count() > 0; });
+  }
+
+  [[nodiscard]] bool options_given(const std::string& name) const {
+    return std::any_of(options.begin(), options.end(),
+                       [&](const CLI::Option* o) { return o->count() > 0 && o->check_name(name); });
   }
 
   [[nodiscard]] bake::BakeOptions to_options() const {
@@ -92,15 +107,27 @@ struct BakeFlags {
       }
       options.spheres.radius = *sphere_radius;
     }
+    if (!tets.empty()) {
+      options.cage.tets = bake::parse_tet_count(tets);
+      options.cage.method = method;
+      bake::validate(options.cage);
+    } else if (options_given("--method")) {
+      throw Error("--method chooses how --tets makes a cage, but no --tets was given", "add --tets N, or leave --method out");
+    }
     return options;
   }
 };
 
 int run_bake(const std::string& mesh, const std::string& cage, const std::string& output, const bake::BakeOptions& options) {
+  if (cage.empty() == !options.cage.enabled()) {
+    throw Error(cage.empty() ? "bake needs a cage: give --cage FILE, or --tets N to make one from the mesh"
+                             : "--cage and --tets both give the cage; use one of them",
+                "--tets 1000 makes a lattice cage of about 1,000 tets; see fissure-bake cage --help");
+  }
   // A bad output path fails now, not after the bake.
-  check_output_path(output, bake_inputs(mesh, cage), "-o");
+  check_output_path(output, cage.empty() ? std::vector<std::filesystem::path>{mesh} : bake_inputs(mesh, cage), "-o");
   const StageTimer total("bake total");
-  formats::Bundle bundle = bake::bake_files(mesh, cage, options);
+  formats::Bundle bundle = cage.empty() ? bake::bake_with_auto_cage(mesh, options) : bake::bake_files(mesh, cage, options);
   bake::record_input_paths(bundle.metadata, mesh, cage, output);
   // The bake checks its own result before writing: a bundle on disk always verifies.
   const auto verify_start = std::chrono::steady_clock::now();
@@ -121,6 +148,41 @@ int run_bake(const std::string& mesh, const std::string& cage, const std::string
   const auto& e = bundle.embedding;
   std::printf("%s: %zu triangles in %zu tets -> %zu instances, %zu contour segments\n", output.c_str(),
               bundle.render.triangle_count(), bundle.cage.tet_count(), e.instance_count(), e.segment_count());
+  return 0;
+}
+
+struct CageArgs {
+  std::string mesh, output, tets, method = bake::AutoCageOptions{}.method;
+  bool json = false, weld = false;
+};
+
+/// `fissure-bake cage`: makes a cage from a mesh, checks that it holds every surface
+/// point exactly, writes it and says what it is like.
+int run_cage(const CageArgs& args) {
+  bake::AutoCageOptions options;
+  options.tets = bake::parse_tet_count(args.tets);
+  options.method = args.method;
+  bake::validate(options);
+  if (!formats::is_cage_path(args.output)) {
+    throw Error("-o " + args.output + ": not a cage file name",
+                "name it .node (TetGen: writes .node and .ele), .msh (Gmsh 2.2) or .mesh (MEDIT)");
+  }
+  for (const auto& file : formats::cage_files(args.output)) check_output_path(file, {args.mesh}, "-o");
+  bake::MeshImportOptions import;
+  import.weld = args.weld;
+  const bake::ImportedMesh imported = bake::import_render_mesh(args.mesh, import);
+  const bake::AutoCage cage = bake::make_cage(imported.mesh, options, args.mesh);
+  // Nothing is written unless the cage holds the whole surface, checked exactly.
+  bake::check_cage_covers(imported.mesh, cage.mesh, args.mesh, "the " + cage.method + " cage");
+  const bake::CageQuality quality = bake::measure_cage(imported.mesh, cage.mesh);
+  formats::write_cage(cage.mesh, args.output);
+  if (args.json) {
+    std::fputs(bake::quality_json(quality).c_str(), stdout);
+    return 0;
+  }
+  std::printf("%s: %zu tets (asked %zu), %s, cell %.4g, in %.2f s\n", args.output.c_str(), cage.mesh.tet_count(),
+              options.tets, cage.method.c_str(), cage.cell, cage.seconds);
+  std::fputs(bake::quality_text(quality).c_str(), stdout);
   return 0;
 }
 
@@ -243,8 +305,9 @@ struct Cli {
   BakeFlags status_flags;
   VerifyArgs verify_args;
   std::vector<std::string> cages;
-  CLI::App *bake_cmd = nullptr, *inspect_cmd = nullptr, *status_cmd = nullptr, *verify_cmd = nullptr,
-           *replication_cmd = nullptr;
+  CageArgs cage_args;
+  CLI::App *bake_cmd = nullptr, *cage_cmd = nullptr, *inspect_cmd = nullptr, *status_cmd = nullptr,
+           *verify_cmd = nullptr, *replication_cmd = nullptr;
 };
 
 void add_bake_command(Cli& cli) {
@@ -252,13 +315,30 @@ void add_bake_command(Cli& cli) {
   CLI::App* bake_cmd = cli.bake_cmd;
   bake_cmd->add_option("--mesh", cli.mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")
       ->required();
-  bake_cmd->add_option("--cage", cli.cage, "Tetrahedral cage: .node/.ele (TetGen), .msh (Gmsh 2.2/4.1), .mesh (MEDIT)")
-      ->required();
+  bake_cmd->add_option("--cage", cli.cage,
+                       "Tetrahedral cage: .node/.ele (TetGen), .msh (Gmsh 2.2/4.1), .mesh (MEDIT); or --tets to make one");
   bake_cmd->add_option("-o,--output", cli.output, "Bundle to write (.h5); written atomically")->required();
   cli.bake_flags.add_to(bake_cmd);
   bake_cmd->add_flag("--no-work-limit", cli.no_work_limit,
                      "Run a stage whose estimated work is past its limit (a very small --sphere-radius, a very "
                      "large --wall-res), however long it takes");
+}
+
+void add_cage_command(Cli& cli) {
+  CageArgs& args = cli.cage_args;
+  CLI::App* command = cli.cage_cmd = cli.app.add_subcommand(
+      "cage", "Make a tetrahedral cage around --mesh with about --tets tets and write it to -o (.node, .msh or .mesh)");
+  command->add_option("--mesh", args.mesh, "Render mesh: PLY (own reader); OBJ, STL, glTF/GLB, FBX, … (via assimp)")
+      ->required();
+  command->add_option("--tets", args.tets, "About how many tets (the cage lands within ±15 %)")->required();
+  command->add_option("-o,--output", args.output, "Cage to write: .node (+ .ele), .msh (Gmsh 2.2), .mesh (MEDIT)")
+      ->required();
+  command->add_option("--method", args.method,
+                      "lattice: trimmed cubes, 6 Kuhn tets each (min dihedral 45°, fast); wrap: an alpha-wrap envelope "
+                      "meshed by CGAL Mesh_3 (shape-following, min dihedral 10°)")
+      ->capture_default_str();
+  command->add_flag("--weld", args.weld, "Merge vertices at identical positions even across normal/UV seams");
+  command->add_flag("--json", args.json, "The cage's quality as JSON on stdout");
 }
 
 void add_inspect_command(Cli& cli) {
@@ -317,6 +397,7 @@ int run_command(const Cli& cli) {
     }
     return run_bake(cli.mesh, cli.cage, cli.output, options);
   }
+  if (*cli.cage_cmd) return run_cage(cli.cage_args);
   if (*cli.inspect_cmd) return run_inspect(cli.bundle_path, cli.json);
   if (*cli.verify_cmd) return run_verify(cli.verify_args);
   if (*cli.status_cmd) return run_status(cli.status_args, cli.status_flags);
@@ -339,6 +420,7 @@ int main(int argc, char** argv) {
   app.add_flag("-v,--verbose", cli.verbose, "Print debug detail");
   app.add_option("-j,--threads", cli.threads, "Worker threads (default: all cores)")->check(CLI::Range(0, kMaxThreads));
   add_bake_command(cli);
+  add_cage_command(cli);
   add_inspect_command(cli);
   add_status_command(cli);
   add_verify_command(cli);

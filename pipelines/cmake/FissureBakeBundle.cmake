@@ -1,16 +1,27 @@
 # One bundle's bake, run by fissure_add_bundle()'s custom command (cmake -P), so the build
 # log names the bundle, not the temporary it is baked under:
 #   cmake -DFISSURE_BAKE=… -DMESH=… -DCAGE=… -DOUTPUT=… -DOPTIONS=a|b|c -P FissureBakeBundle.cmake
+# or, for a cage made from the mesh, -DTETS=N [-DMETHOD=lattice|wrap] instead of -DCAGE.
 # Bakes to OUTPUT.building.h5, verifies that file, then renames it onto OUTPUT. A bake or
 # verify that fails prints the tool's messages as they are, removes the temporary, keeps
 # the last good OUTPUT and fails (so the build fails and the bake runs again next time).
 # OPTIONS: the bake flags, separated by | (a ; would split the -D argument).
 cmake_minimum_required(VERSION 3.25)
-foreach(required FISSURE_BAKE MESH CAGE OUTPUT)
+foreach(required FISSURE_BAKE MESH OUTPUT)
   if(NOT DEFINED ${required})
     message(FATAL_ERROR "FissureBakeBundle.cmake: -D${required}=… is required")
   endif()
 endforeach()
+if(DEFINED TETS)
+  set(cage_flags --tets "${TETS}")
+  if(DEFINED METHOD)
+    list(APPEND cage_flags --method "${METHOD}")
+  endif()
+elseif(DEFINED CAGE)
+  set(cage_flags --cage "${CAGE}")
+else()
+  message(FATAL_ERROR "FissureBakeBundle.cmake: -DCAGE=… or -DTETS=… is required")
+endif()
 string(REPLACE "|" ";" options "${OPTIONS}")
 set(temporary "${OUTPUT}.building.h5")
 cmake_path(GET OUTPUT PARENT_PATH folder)
@@ -32,6 +43,6 @@ function(run step)
   endif()
 endfunction()
 
-run(bake -q bake --mesh "${MESH}" --cage "${CAGE}" -o "${temporary}" ${options})
+run(bake -q bake --mesh "${MESH}" ${cage_flags} -o "${temporary}" ${options})
 run(verify -q verify "${temporary}")
 file(RENAME "${temporary}" "${OUTPUT}")

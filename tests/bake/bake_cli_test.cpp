@@ -452,12 +452,17 @@ TEST(BakeCli, UsageErrorsAndHelp) {
   EXPECT_NE(run("").exit_code, 0);
   const Result help = run("--help");
   EXPECT_EQ(help.exit_code, 0);
-  for (const char* command : {"bake", "inspect", "verify", "replication"}) {
+  for (const char* command : {"bake", "cage", "inspect", "verify", "replication"}) {
     EXPECT_NE(help.output.find(command), std::string::npos) << help.output;
   }
   const Result missing = run("bake --mesh x.obj");
   EXPECT_NE(missing.exit_code, 0);
-  EXPECT_NE(missing.output.find("--cage"), std::string::npos) << missing.output;
+  EXPECT_NE(missing.output.find("--output"), std::string::npos) << missing.output;
+  // Neither --cage nor --tets (issue 43: the cage may be made from the mesh).
+  testing::TempDir dir;
+  const Result no_cage = run("bake --mesh x.obj -o " + quoted(dir / "b.h5"));
+  EXPECT_EQ(no_cage.exit_code, 1);
+  EXPECT_NE(no_cage.output.find("give --cage FILE, or --tets N"), std::string::npos) << no_cage.output;
 }
 
 TEST(BakeCli, ReplicationTableCountsEveryTriangle) {

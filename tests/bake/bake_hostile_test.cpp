@@ -193,7 +193,10 @@ TEST(BakeHostile, EveryUsageErrorIsExitOne) {
   const struct {
     std::string arguments, message;
   } cases[] = {
-      {"bake --mesh x.obj", "--cage"},                    // CLI11: 106 (required option missing)
+      {"bake --mesh x.obj", "--output"},                  // CLI11: 106 (required option missing)
+      {"bake --mesh x.obj -o " + quoted(dir / "b.h5"), "--cage"},  // neither --cage nor --tets
+      {"bake --mesh x.obj --tets nan -o " + quoted(dir / "b.h5"), "nan"},
+      {"cage --mesh x.obj --tets 1e9 -o " + quoted(dir / "c.node"), "1e9"},
       {"bake --mesh x.obj --cage y.node -o", "-o"},       // 106: an option without its value
       {"frobnicate", "subcommand"},                       // 109: an extra argument
       {"-j nine bake", "nine"},                           // 105: not a number
