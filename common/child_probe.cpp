@@ -72,10 +72,12 @@ void limit_child(const ChildProbeLimits& limits) {
   }
 }
 
-/// Sends an error to the parent: message, a NUL, hint. Short enough for the pipe's
-/// buffer, so the write never waits for the parent (which reads after the child ends).
-void send_error(int fd, const Error& e) {
-  constexpr std::size_t kMost = 3000;
+/// Sends an error to the parent: message, a NUL, hint. Short enough for one page of pipe
+/// buffer (4096 bytes, the least Linux gives a pipe), so the write never waits for the
+/// parent, which reads after the child ends. Never throws: it runs in the forked child,
+/// where an escaping exception would run the parent's code on.
+void send_error(int fd, const Error& e) noexcept {
+  constexpr std::size_t kMost = 2000;
   std::string text = std::string(e.what()).substr(0, kMost);
   text += '\0';
   text += e.hint().substr(0, kMost);

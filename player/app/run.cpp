@@ -68,9 +68,18 @@ RunEnd run_with_frames(RunLoop& loop, const sim::World& world, FrameOutput& imag
                        std::optional<Error>& failure) {
   const double steps_per_frame = 1.0 / (options.images.fps * world.settings().step.dt);
   loop.start();
-  try {
-    images.capture(world, 0, 0.0);
-    long taken = 0;
+  // Only the frames' own errors end the run here; an error of the physics leaves as it
+  // would without frames.
+  const auto capture = [&](int steps, double physics_ms) {
+    try {
+      images.capture(world, steps, physics_ms);
+    } catch (const Error& e) {
+      failure = e;
+    }
+    return !failure;
+  };
+  long taken = 0;
+  if (capture(0, 0.0)) {
     for (long f = 1; !loop.stopped(); ++f) {
       const long target = std::llround(static_cast<double>(f) * steps_per_frame);
       if (target > options.steps) break;
@@ -78,12 +87,9 @@ RunEnd run_with_frames(RunLoop& loop, const sim::World& world, FrameOutput& imag
       const long steps = loop.take_steps(target - taken);
       taken += steps;
       const double physics_ms = 1e3 * std::chrono::duration<double>(Clock::now() - start).count();
-      if (loop.stopped()) break;
-      images.capture(world, static_cast<int>(steps), physics_ms);
+      if (loop.stopped() || !capture(static_cast<int>(steps), physics_ms)) break;
     }
-    loop.take_steps(options.steps - taken);  // what is left after the last whole frame
-  } catch (const Error& e) {
-    failure = e;
+    if (!failure) loop.take_steps(options.steps - taken);  // what is left after the last whole frame
   }
   return loop.finish();
 }
@@ -124,10 +130,14 @@ void check_outputs(const formats::Scene& scene, const RunOptions& options) {
   }
   if (!frames.empty() && std::filesystem::is_directory(frames, ec)) {
     // The frames replace files of the same name: never a FIFO or a device left there.
+    // One pass over the folder, which may hold thousands of frames of an earlier run.
     for (const auto& entry : std::filesystem::directory_iterator(frames, ec)) {
       const std::string name = entry.path().filename().string();
       if (name != "frames.json" && !(name.rfind("frame-", 0) == 0 && entry.path().extension() == ".png")) continue;
-      check_output_path(entry.path(), inputs, "--frames");
+      if (const std::string kind = special_file_kind(entry.path()); !kind.empty()) {
+        throw Error("--frames " + entry.path().string() + ": is " + kind + ", which a frame would replace",
+                    "remove it, or give another folder for the frames");
+      }
     }
   }
 }

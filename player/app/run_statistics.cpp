@@ -8,16 +8,25 @@ namespace fissure::player {
 void PhaseStats::add(double seconds) {
   total += seconds;
   max = std::max(max, seconds);
-  samples.push_back(seconds);
+  const double octaves = seconds > kSmallest ? std::log2(seconds / kSmallest) : 0.0;
+  const auto last = static_cast<double>(buckets.size() - 1);
+  ++buckets[static_cast<std::size_t>(std::clamp(std::floor(octaves * kBucketsPerOctave), 0.0, last))];
+  ++count;
 }
 
 double PhaseStats::quantile(double q) const {
-  if (samples.empty()) return 0.0;
-  std::vector<double> sorted = samples;
-  const auto rank = static_cast<std::size_t>(std::ceil(std::clamp(q, 0.0, 1.0) * static_cast<double>(sorted.size())));
-  const auto k = std::min(sorted.size() - 1, rank > 0 ? rank - 1 : 0);
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
-  return sorted[k];
+  if (count == 0) return 0.0;
+  const auto rank = static_cast<std::uint64_t>(std::ceil(std::clamp(q, 0.0, 1.0) * static_cast<double>(count)));
+  std::uint64_t seen = 0;
+  for (std::size_t b = 0; b < buckets.size(); ++b) {
+    seen += buckets[b];
+    if (seen >= std::max<std::uint64_t>(rank, 1)) {
+      // The bucket's geometric middle: within half a bucket (0.55 %) of any time in it.
+      const double middle = kSmallest * std::exp2((static_cast<double>(b) + 0.5) / kBucketsPerOctave);
+      return std::min(middle, max);
+    }
+  }
+  return max;
 }
 
 void RunStatistics::on_start(const sim::World& world) {

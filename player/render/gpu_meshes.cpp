@@ -295,7 +295,9 @@ std::unique_ptr<EmbeddedBody> upload_embedded(const EmbeddedMesh& mesh, std::siz
   auto body = std::make_unique<EmbeddedBody>();
   body->color = mesh.color;
   body->interior_color = mesh.interior_color;
-  upload_bytes += upload_instances(mesh, *body) + upload_walls(mesh, *body) + upload_debug_data(mesh, *body);
+  upload_bytes += upload_instances(mesh, *body);  // first: it sets body->corners, which the debug data sizes by
+  upload_bytes += upload_walls(mesh, *body);
+  upload_bytes += upload_debug_data(mesh, *body);
   return body;
 }
 

@@ -19,7 +19,9 @@ int shadow_map_size(const Eigen::AlignedBox3f& casters, const Camera& camera, in
   const float distance = std::max((casters.center() - camera.eye).norm() - radius, 0.1f * radius);
   const float half_fov = 0.5f * camera.fov_y_degrees * std::numbers::pi_v<float> / 180.0f;
   const float diameter = radius * static_cast<float>(image_height) / (distance * std::tan(half_fov));  // [pixels]
-  const auto wanted = static_cast<unsigned>(std::clamp(diameter, 256.0f, 2048.0f));
+  // NaN (no caster in view, or the eye on the casters' centre) takes the smallest map.
+  const float clamped = diameter >= 256.0f ? std::min(diameter, 2048.0f) : 256.0f;
+  const auto wanted = static_cast<unsigned>(clamped);
   return static_cast<int>(std::bit_floor(wanted));  // the 2×2 filter hides the coarser texels
 }
 

@@ -117,17 +117,23 @@ TEST(RunLoop, AnObserverCanStopTheRunAndEveryoneHearsWhy) {
   EXPECT_EQ(world->time(), 5.0 / 240.0);
 }
 
-// The report's p99 is a nearest-rank quantile of every step's time: 1..100 ms gives
-// 99 ms, the extremes the minimum and the maximum, and a run of no step 0.
-TEST(RunStatistics, PhaseQuantilesAreNearestRank) {
+// The report's p99 is a nearest-rank quantile of every step's time, to within 1.1 % (a
+// log histogram with fixed memory): 1..100 ms gives 99 ms, the extremes the minimum and
+// the maximum, and a run of no step 0.
+TEST(RunStatistics, PhaseQuantilesAreNearestRankToWithinOnePercent) {
   PhaseStats p;
   EXPECT_EQ(p.quantile(0.99), 0.0);
   for (int i = 100; i >= 1; --i) p.add(1e-3 * i);
-  EXPECT_DOUBLE_EQ(p.quantile(0.99), 0.099);
-  EXPECT_DOUBLE_EQ(p.quantile(1.0), 0.100);
-  EXPECT_DOUBLE_EQ(p.quantile(0.0), 0.001);
-  EXPECT_DOUBLE_EQ(p.quantile(0.5), 0.050);
+  EXPECT_NEAR(p.quantile(0.99), 0.099, 0.011 * 0.099);
+  EXPECT_NEAR(p.quantile(0.5), 0.050, 0.011 * 0.050);
+  EXPECT_NEAR(p.quantile(0.0), 0.001, 0.011 * 0.001);
+  EXPECT_LE(p.quantile(1.0), 0.100);
+  EXPECT_NEAR(p.quantile(1.0), 0.100, 0.011 * 0.100);
   EXPECT_DOUBLE_EQ(p.max, 0.100);
+  // The buckets do not grow with the run.
+  const std::size_t buckets = p.buckets.size();
+  for (int i = 0; i < 10000; ++i) p.add(1e-4);
+  EXPECT_EQ(p.buckets.size(), buckets);
 }
 
 }  // namespace
