@@ -11,13 +11,14 @@
 #include "formats/text_tokens.h"
 
 namespace fissure::formats {
-namespace {
 
 std::string lowercase_extension(const std::filesystem::path& path) {
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return ext;
 }
+
+namespace {
 
 void finish(CageFile& cage, const CageSource& source) {
   cage.flipped_tets = validate_and_orient(cage.mesh, source);

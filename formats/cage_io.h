@@ -25,6 +25,9 @@ struct CageFile {
 /// file of the pair is found beside it), `.msh`, `.mesh`. Throws fissure::Error.
 CageFile read_cage(const std::filesystem::path& path);
 
+/// A path's extension in lower case, with its dot (".node"): how a cage's format is told.
+std::string lowercase_extension(const std::filesystem::path& path);
+
 /// The files a cage is read from: a TetGen `.node` or `.ele` names both halves of the
 /// pair (.node first); any other format, the file itself.
 std::vector<std::filesystem::path> cage_files(const std::filesystem::path& path);

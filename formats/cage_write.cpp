@@ -12,12 +12,6 @@
 namespace fissure::formats {
 namespace {
 
-std::string lowercase_extension(const std::filesystem::path& path) {
-  std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext;
-}
-
 /// "x y z" with 17 significant digits: the shortest text that reads back as the same double.
 void append_point(std::string& out, const Matrix3Xd& positions, Eigen::Index i) {
   char buffer[96];
