@@ -20,10 +20,7 @@ using testing::quoted;
 
 Result run(const std::string& arguments) { return testing::run_command(std::string(FISSURE_BAKE_EXE) + " " + arguments); }
 
-std::string bytes_of(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
+using testing::bytes_of;
 
 const std::filesystem::path kMesh = testing::data_dir() / "meshes" / "bunny-5k.obj";
 const std::filesystem::path kCage = testing::data_dir() / "cages" / "bunny-5k-cage-100.node";

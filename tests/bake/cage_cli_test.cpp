@@ -17,10 +17,7 @@ using testing::quoted;
 
 Result run(const std::string& arguments) { return testing::run_command(std::string(FISSURE_BAKE_EXE) + " " + arguments); }
 
-std::string bytes_of(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
+using testing::bytes_of;
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 

@@ -9,6 +9,7 @@
 #include "common/error.h"
 #include "formats/cage_io.h"
 #include "tests/support/procedural.h"
+#include "tests/support/run_command.h"
 #include "tests/support/temp_dir.h"
 
 namespace fissure::formats {
@@ -16,10 +17,7 @@ namespace {
 
 using testing::TempDir;
 
-std::string bytes_of(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
+using testing::bytes_of;
 
 /// A grid cage with coordinates that need all 17 digits to come back bit-identical.
 TetMesh awkward_cage() {
