@@ -29,14 +29,21 @@ sim::ExactResolve exact_resolve(formats::SceneExact exact) {
 sim::EmbeddedPoints render_vertices(const formats::Bundle& bundle) {
   const auto& e = bundle.embedding;
   const std::size_t vertex_count = bundle.render.vertex_count();
+  // A vertex's triangles are drawn in every tet they cross, each instance clipped to its
+  // tet, so the vertex is drawn only by the tets that hold it. Of its instances' tets, it
+  // follows the one it is deepest inside (largest least barycentric coordinate): the first
+  // instance's tet held it for only 1,369 of the sample bunny's 2,502 vertices, and a
+  // vertex carried by a tet that does not hold it (coordinates down to -0.88) went where
+  // nothing is drawn once fracture freed that tet (issue 42: 24 mm "in the ground").
   std::vector<std::size_t> first(vertex_count, SIZE_MAX);
   std::vector<Vec4> barycentric(vertex_count);
   for (std::size_t i = 0; i < e.instance_count(); ++i) {
     for (int corner = 0; corner < 3; ++corner) {
       const Index v = bundle.render.triangles(corner, e.instance_triangle[i]);
-      if (first[v] != SIZE_MAX) continue;
+      const Vec4 beta = e.instance_barycentric[i].col(corner);
+      if (first[v] != SIZE_MAX && !(beta.minCoeff() > barycentric[v].minCoeff())) continue;
       first[v] = i;
-      barycentric[v] = e.instance_barycentric[i].col(corner);
+      barycentric[v] = beta;
     }
   }
   sim::EmbeddedPoints points;

@@ -35,6 +35,22 @@ TEST(LoadedScene, KeepsEachBodysRenderMeshInstancesAndFaces) {
   EXPECT_EQ(loaded.assets[1].scale, 1.0);
 }
 
+// A render vertex follows a tet that holds it: its triangle is drawn in every tet it
+// crosses, clipped to each, so only those tets draw the vertex. Carried by another tet's
+// extrapolated coordinates, it went where nothing was drawn once fracture freed that tet
+// (issue 42: the sample's "24 mm into the ground" was such a vertex).
+TEST(LoadedScene, EachRenderVertexFollowsATetThatHoldsIt) {
+  testing::TempDir dir;
+  formats::write_bundle(dir.path() / "two.h5", testing::two_tet_bundle());
+  std::ofstream(dir.path() / "scene.toml") << "[[object]]\nbundle = \"two.h5\"\n";
+  const LoadedScene loaded = load_scene(formats::read_scene(dir.path() / "scene.toml"));
+  const sim::EmbeddedPoints& vertices = loaded.world.bodies()[0].vertices;
+  ASSERT_EQ(vertices.size(), 3u);
+  // Vertex 0 lies in tet 0, vertices 1 and 2 in tet 1 (the triangle's first instance is tet 0's).
+  EXPECT_EQ(vertices.tet, (std::vector<TetIndex>{0, 1, 1}));
+  for (std::size_t v = 0; v < vertices.size(); ++v) EXPECT_GE(vertices.barycentric[v].minCoeff(), 0.0) << "vertex " << v;
+}
+
 TEST(RenderFrame, FollowsTheWorldAndRewritesConnectivityOnlyWhenItChanges) {
   const auto world_ptr = testing::breaking_bar().make();
   sim::World& world = *world_ptr;
