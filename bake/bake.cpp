@@ -268,14 +268,11 @@ void collision_stage(formats::Bundle& bundle, const FaceRegions& regions, const 
   char radius[32];
   std::snprintf(radius, sizeof radius, "%.4g", bundle.collision->target_radius);
   log_stage("collision",
-            std::to_string(bundle.collision->sphere_tet.size()) + " spheres (target radius " + radius + ", " +
-                std::to_string(s.collision.culled) + " surrounded ones culled, " +
-                std::to_string(s.collision.tets_halved) + " tets halved)",
+            std::to_string(bundle.collision->sphere_tet.size()) + " spheres (target radius " + radius + "; " +
+                std::to_string(s.collision.surface) + " on the surface, " + std::to_string(s.collision.culled) +
+                " surrounded ones culled, " + std::to_string(s.collision.near_surface) + " at the surface dropped; " + std::to_string(s.collision.tets_bare) +
+                " tets with solid but no sphere, given one by the player when fracture exposes them)",
             s.collision_s);
-  if (s.collision.tets_short > 0) {
-    log_warning(std::to_string(s.collision.tets_short) + " tets with solid inside have fewer than 3 spheres even at 1/" +
-                std::to_string(1 << options.spheres.max_halvings) + " of the radius");
-  }
 }
 
 }  // namespace
@@ -301,7 +298,8 @@ std::string BakeOptions::to_json() const {
   }
   if (collision) {
     j.key("sphere_radius").value(spheres.radius);
-    j.key("sphere_max_halvings").value(spheres.max_halvings);
+    j.key("sphere_version").value(static_cast<std::int64_t>(kSphereVersion));
+    if (!spheres.surface) j.key("surface_spheres").value(false);
   }
   if (cage.enabled()) {
     j.key("cage_method").value(cage.method);
@@ -322,7 +320,7 @@ formats::Bundle embed(const SurfaceMesh& input_mesh, const TetMesh& cage, const 
   if (options.walls) validate(options.wall);
   if (options.collision) {
     validate(options.spheres);
-    check_collision_work(cage, options.spheres);
+    check_collision_work(input_mesh, cage, options.spheres);
   }
 
   formats::Bundle bundle;

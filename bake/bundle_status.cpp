@@ -1,9 +1,11 @@
 #include "bake/bundle_status.h"
 
 #include <algorithm>
+#include <optional>
 #include <utility>
 
 #include "bake/bake.h"
+#include "bake/collision_proxies.h"
 #include "bake/file_hash.h"
 #include "common/error.h"
 #include "common/json_writer.h"
@@ -117,6 +119,25 @@ std::string options_difference(const std::string& baked, const std::string& aske
   return text.empty() ? baked + " -> " + asked : text;
 }
 
+/// "collision spheres of model 1; this bake makes model 2" when the bundle's spheres were
+/// made by another model than kSphereVersion (bundles before it record none: model 1);
+/// empty when it has no collision stage or the same model.
+std::string sphere_model_difference(const std::string& bake_options) {
+  const auto pairs = top_level_pairs(bake_options);
+  const auto value = [&](const std::string& key) -> std::optional<std::string> {
+    for (const auto& [k, v] : pairs) {
+      if (k == key) return v;
+    }
+    return std::nullopt;
+  };
+  const std::optional<std::string> stages = value("stages");
+  if (!stages || stages->find("\"collision\"") == std::string::npos) return "";
+  const std::string baked = value("sphere_version").value_or("1");
+  if (baked == std::to_string(kSphereVersion)) return "";
+  return "collision spheres of model " + baked + "; this bake makes model " + std::to_string(kSphereVersion) +
+         " (spheres that follow the solid, not the cage)";
+}
+
 }  // namespace
 
 BundleStatus bundle_status(const fs::path& bundle, const StatusQuery& query) {
@@ -135,6 +156,9 @@ BundleStatus bundle_status(const fs::path& bundle, const StatusQuery& query) {
   }
   if (metadata.generator != generator_string()) {
     mark(status, BundleState::Stale, "baked by " + metadata.generator + "; this is " + generator_string());
+  }
+  if (const std::string spheres = sphere_model_difference(metadata.bake_options); !spheres.empty()) {
+    mark(status, BundleState::Stale, spheres);
   }
   try {
     check_input(status, metadata, "mesh", query.mesh);

@@ -11,6 +11,8 @@
 
 #include "common/barycentric.h"
 #include "bake/progress.h"
+#include "bake/surface_distance.h"
+#include "bake/surface_spheres.h"
 #include "common/error.h"
 
 namespace fissure::bake {
@@ -18,16 +20,16 @@ namespace {
 
 using formats::TetClass;
 
-/// A grid point: refinement level and integer coordinates on that level's grid.
+/// A grid point: its integer coordinates.
 struct GridKey {
-  std::int32_t level, i, j, k;
+  std::int32_t i, j, k;
   bool operator==(const GridKey&) const = default;
   auto operator<=>(const GridKey&) const = default;
 };
 
 struct GridKeyHash {
   std::size_t operator()(const GridKey& g) const {
-    std::uint64_t h = static_cast<std::uint32_t>(g.level);
+    std::uint64_t h = 0xcbf29ce484222325ull;
     for (const std::int32_t v : {g.i, g.j, g.k}) h = (h ^ static_cast<std::uint32_t>(v)) * 0x100000001b3ull;
     return static_cast<std::size_t>(h);
   }
@@ -36,8 +38,8 @@ struct GridKeyHash {
 /// Grid points sit at origin + h (index + offset). The offset is half a cell plus a
 /// little of no particular ratio, so that points practically never fall exactly on a
 /// tet face: structured cages (and the Kuhn grids in the tests) put faces on planes
-/// like x = y, where a half-cell lattice would sit exactly, and a point shared by two
-/// tets would leave one of them short of its 3 spheres.
+/// like x = y, where a half-cell lattice would sit exactly, and a point on a face would
+/// belong to two tets.
 const Vec3 kGridOffset(0.5137, 0.5271, 0.5419);
 
 struct Sample {
@@ -65,21 +67,20 @@ void validate(const SphereOptions& o) {
     throw Error("--sphere-radius " + std::to_string(o.radius) + " is not a positive length",
                 "give a radius in the mesh's units, e.g. 0.005, or leave it out for the default");
   }
-  if (o.max_halvings < 0 || o.max_halvings > 16) throw Error("the sphere halving count must be 0 … 16");
 }
 
-double default_sphere_radius(const TetMesh& cage) {
-  std::vector<double> lengths;
-  lengths.reserve(cage.tet_count() * 6);
-  for (Index t = 0; t < cage.tet_count(); ++t) {
-    for (int a = 0; a < 4; ++a) {
-      for (int b = a + 1; b < 4; ++b) {
-        lengths.push_back((cage.rest_positions.col(cage.tets(a, t)) - cage.rest_positions.col(cage.tets(b, t))).norm());
-      }
-    }
+double default_sphere_radius(const SurfaceMesh& mesh) {
+  // The enclosed volume by the divergence theorem, from the triangles' signed volumes
+  // about the centre (so rounding does not grow with the distance to the origin).
+  const Vec3 centre = mesh.positions.rowwise().mean();
+  double volume = 0.0;
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    const Vec3 a = mesh.positions.col(mesh.triangles(0, t)) - centre, b = mesh.positions.col(mesh.triangles(1, t)) - centre,
+               c = mesh.positions.col(mesh.triangles(2, t)) - centre;
+    volume += a.dot(b.cross(c)) / 6.0;
   }
-  std::nth_element(lengths.begin(), lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2), lengths.end());
-  return lengths[lengths.size() / 2] / 5.0;
+  const double diagonal = (mesh.positions.rowwise().maxCoeff() - mesh.positions.rowwise().minCoeff()).norm();
+  return kRadiusPerSize * std::max(std::cbrt(std::abs(volume)), diagonal / 20.0);
 }
 
 SolidPart solid_part(const formats::Bundle& b, const FaceRegions& regions, TetIndex tet,
@@ -131,8 +132,8 @@ struct CollisionGrid {
 /// Per-tet results of step 1, written by one thread each.
 struct TetSamples {
   std::vector<std::vector<GridKey>> keys;
-  std::vector<std::uint8_t> halved, short_of_three, sampled;
-  explicit TetSamples(std::size_t tets) : keys(tets), halved(tets, 0), short_of_three(tets, 0), sampled(tets, 0) {}
+  std::vector<std::uint8_t> sampled;
+  explicit TetSamples(std::size_t tets) : keys(tets), sampled(tets, 0) {}
 };
 
 std::string short_number(double value) {
@@ -149,7 +150,7 @@ void check_grid_work(const TetMesh& cage, const SphereOptions& options, double r
   const Vec3 origin = cage.rest_positions.rowwise().minCoeff();
   // Grid indices are 32-bit, and a lattice this fine would take forever to scan.
   const double extent = (cage.rest_positions.rowwise().maxCoeff() - origin).maxCoeff();
-  const double cells = extent / (spacing0 / std::ldexp(1.0, options.max_halvings));
+  const double cells = extent / spacing0;
   if (!(cells <= 1 << 20)) {
     throw Error("--sphere-radius " + short_number(radius) + " is too small for a cage " + short_number(extent) +
                     " across (" + short_number(cells) + " grid cells per axis)",
@@ -161,7 +162,7 @@ void check_grid_work(const TetMesh& cage, const SphereOptions& options, double r
   throw Error("--sphere-radius " + short_number(radius) + " implies scanning about " + short_number(points) +
                   " grid points for the collision spheres, past the limit of " +
                   short_number(static_cast<double>(options.max_grid_points)) + " (past it: minutes of work and gigabytes)",
-              "use a larger radius (the default is a fifth of the median cage edge), or pass --no-work-limit to run "
+              "use a larger radius (the default is 4.5 % of the cube root of the mesh's volume), or pass --no-work-limit to run "
               "it anyway");
 }
 
@@ -214,14 +215,14 @@ void tet_mass(const CollisionGrid& g, const std::vector<std::size_t>& instances,
   }
 }
 
-/// The grid points of one level inside tet `t` and inside the solid.
-std::vector<GridKey> scan_level(const CollisionGrid& g, std::size_t t, int level) {
+/// Step 1b: the grid points inside tet `t` and inside the solid.
+std::vector<GridKey> scan_tet(const CollisionGrid& g, std::size_t t) {
   const auto nodes = tet_nodes(g.b.cage, static_cast<TetIndex>(t));
   const TetBarycentricFrame frame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
   const Vec3 lo = nodes.rowwise().minCoeff(), hi = nodes.rowwise().maxCoeff();
   const bool crossing = g.b.embedding.tet_class[t] == TetClass::Crossing;
   std::vector<GridKey> keys;
-  const double h = g.spacing0 / std::ldexp(1.0, level);
+  const double h = g.spacing0;
   const Eigen::Vector3i first = ((lo - g.origin) / h - kGridOffset).array().ceil().cast<int>();
   const Eigen::Vector3i last = ((hi - g.origin) / h - kGridOffset).array().floor().cast<int>();
   for (int k = first.z(); k <= last.z(); ++k) {
@@ -230,44 +231,11 @@ std::vector<GridKey> scan_level(const CollisionGrid& g, std::size_t t, int level
         const Vec3 x = g.origin + h * (Vec3(i, j, k) + kGridOffset);
         if (frame.coordinates(x).minCoeff() < 0.0) continue;
         if (crossing && g.winding.winding_number(x) < 0.5) continue;
-        keys.push_back({level, i, j, k});
+        keys.push_back({i, j, k});
       }
     }
   }
   return keys;
-}
-
-/// Step 1b: tet `t`'s samples, halving the spacing until it has 3.
-void sample_tet(const CollisionGrid& g, std::size_t t, double mass_fraction, TetSamples& out) {
-  const auto nodes = tet_nodes(g.b.cage, static_cast<TetIndex>(t));
-  const double tet_volume = signed_volume(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
-  const int max_halvings = g.options.max_halvings;
-  // The exact solid volume says which level can hold 3 samples (a lattice cell of
-  // volume h³ per sample): start there rather than scanning coarser levels in vain,
-  // and never scan a level finer than needed.
-  const double solid_volume = mass_fraction * tet_volume;
-  int start_level = 0;
-  while (start_level < max_halvings && solid_volume < 3.0 * std::pow(g.spacing0 / std::ldexp(1.0, start_level), 3)) {
-    ++start_level;
-  }
-  const double finest = g.spacing0 / std::ldexp(1.0, max_halvings);
-  if (solid_volume < finest * finest * finest) {
-    // Less solid than one cell of the finest lattice: no level can give it 3
-    // spheres, and scanning would cost the most of all. Its neighbours' spheres
-    // cover it.
-    out.short_of_three[t] = 1;
-    return;
-  }
-  for (int level = start_level; level <= max_halvings; ++level) {
-    std::vector<GridKey> keys = scan_level(g, t, level);
-    const bool enough = keys.size() >= 3;
-    if (enough || level == max_halvings) {
-      out.keys[t] = std::move(keys);
-      out.halved[t] = level > 0;
-      out.short_of_three[t] = !enough;
-      break;
-    }
-  }
 }
 
 /// Step 2: every tet's samples, one per grid point: a point on a face shared by two
@@ -276,9 +244,7 @@ std::vector<Sample> unique_samples(const TetSamples& per_tet, formats::Collision
   std::vector<Sample> samples;
   for (TetIndex t = 0; t < per_tet.keys.size(); ++t) {
     for (const GridKey& key : per_tet.keys[t]) samples.push_back({key, t});
-    st.tets_halved += per_tet.halved[t];
     c.sampled_tets += per_tet.sampled[t];
-    st.tets_short += per_tet.short_of_three[t];
   }
   std::sort(samples.begin(), samples.end(), [](const Sample& x, const Sample& y) {
     return x.key != y.key ? x.key < y.key : x.tet < y.tet;
@@ -289,7 +255,7 @@ std::vector<Sample> unique_samples(const TetSamples& per_tet, formats::Collision
   return samples;
 }
 
-/// Step 3: drops spheres whose 26 neighbours (same level) are all present.
+/// Step 3: drops spheres whose 26 neighbours are all present.
 std::vector<Sample> cull_surrounded(const std::vector<Sample>& samples, bool cull) {
   std::unordered_set<GridKey, GridKeyHash> present;
   present.reserve(samples.size() * 2);
@@ -301,7 +267,7 @@ std::vector<Sample> cull_surrounded(const std::vector<Sample>& samples, bool cul
       for (int dj = -1; dj <= 1 && surrounded; ++dj) {
         for (int di = -1; di <= 1 && surrounded; ++di) {
           if (di == 0 && dj == 0 && dk == 0) continue;
-          surrounded = present.count({s.key.level, s.key.i + di, s.key.j + dj, s.key.k + dk}) > 0;
+          surrounded = present.count({s.key.i + di, s.key.j + dj, s.key.k + dk}) > 0;
         }
       }
     }
@@ -326,8 +292,8 @@ double estimated_grid_points(const TetMesh& cage, double spacing) {
   return points;
 }
 
-void check_collision_work(const TetMesh& cage, const SphereOptions& options) {
-  const double radius = options.radius > 0.0 ? options.radius : default_sphere_radius(cage);
+void check_collision_work(const SurfaceMesh& mesh, const TetMesh& cage, const SphereOptions& options) {
+  const double radius = options.radius > 0.0 ? options.radius : default_sphere_radius(mesh);
   check_grid_work(cage, options, radius, 2.0 * radius);
 }
 
@@ -338,7 +304,7 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
   CollisionStats& st = stats ? *stats : local_stats;
   const TetMesh& cage = b.cage;
   formats::Collision c;
-  c.target_radius = options.radius > 0.0 ? options.radius : default_sphere_radius(cage);
+  c.target_radius = options.radius > 0.0 ? options.radius : default_sphere_radius(b.render);
   const CollisionGrid grid{b, regions, winding, options, cage.rest_positions.rowwise().minCoeff(), 2.0 * c.target_radius};
   check_grid_work(cage, options, c.target_radius, grid.spacing0);
 
@@ -346,7 +312,7 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
   std::vector<std::vector<std::size_t>> by_tet(cage.tet_count());
   for (std::size_t i = 0; i < b.embedding.instance_count(); ++i) by_tet[b.embedding.instance_tet[i]].push_back(i);
 
-  // 1. Mass, then samples per tet, halving the spacing until a non-empty tet has 3.
+  // 1. Mass, then the grid points of every tet with solid in it.
   TetSamples per_tet(cage.tet_count());
   c.mass_fraction.assign(cage.tet_count(), 0.0);
   c.center_of_mass.assign(cage.tet_count(), Vec4::Constant(0.25));
@@ -354,7 +320,7 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
   tbb::parallel_for(std::size_t{0}, cage.tet_count(), [&](std::size_t t) {
     if (b.embedding.tet_class[t] != TetClass::Outside) {
       tet_mass(grid, by_tet[t], t, c, per_tet.sampled[t]);
-      if (!(c.mass_fraction[t] <= 0.0)) sample_tet(grid, t, c.mass_fraction[t], per_tet);
+      if (!(c.mass_fraction[t] <= 0.0)) per_tet.keys[t] = scan_tet(grid, t);
     }
     progress.advance();
   });
@@ -362,15 +328,44 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
   const std::vector<Sample> samples = unique_samples(per_tet, c, st);
   const std::vector<Sample> kept = cull_surrounded(samples, options.cull_surrounded);
   st.culled = samples.size() - kept.size();
-  for (const Sample& s : kept) {
-    const double h = grid.spacing0 / std::ldexp(1.0, s.key.level);
-    const Vec3 x = grid.origin + h * (Vec3(s.key.i, s.key.j, s.key.k) + kGridOffset);
+  // A grid sphere nearer the surface than r would poke out of it, holding the body off
+  // what it touches (up to r) and standing on a few spheres instead of its surface: it
+  // shrinks to its centre's distance from the surface, and goes where that is under
+  // kLeastGridShare r (the surface spheres cover that layer).
+  const SurfaceDistance distance(b.render);
+  std::vector<double> radius(kept.size());
+  tbb::parallel_for(std::size_t{0}, kept.size(), [&](std::size_t k) {
+    const Sample& s = kept[k];
+    radius[k] = std::min(c.target_radius,
+                         distance.distance(grid.origin + grid.spacing0 * (Vec3(s.key.i, s.key.j, s.key.k) + kGridOffset)));
+  });
+  std::vector<std::uint8_t> has_sphere(cage.tet_count(), 0);
+  for (std::size_t k = 0; k < kept.size(); ++k) {
+    const Sample& s = kept[k];
+    if (radius[k] < kLeastGridShare * c.target_radius) {
+      ++st.near_surface;
+      continue;
+    }
+    const Vec3 x = grid.origin + grid.spacing0 * (Vec3(s.key.i, s.key.j, s.key.k) + kGridOffset);
     const auto nodes = tet_nodes(cage, s.tet);
     const TetBarycentricFrame frame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3));
     c.sphere_tet.push_back(s.tet);
     c.sphere_barycentric.push_back(frame.coordinates(x));
-    c.sphere_radius.push_back(0.5 * h);
+    c.sphere_radius.push_back(radius[k]);
+    has_sphere[s.tet] = 1;
   }
+  if (options.surface) {
+    SurfaceSphereStats surface_stats;
+    for (const SurfaceSphere& s : surface_spheres(b, winding, distance, c.target_radius, &surface_stats)) {
+      c.sphere_tet.push_back(s.tet);
+      c.sphere_barycentric.push_back(s.barycentric);
+      c.sphere_radius.push_back(s.radius);
+      has_sphere[s.tet] = 1;
+    }
+    st.surface = surface_stats.spheres;
+    st.surface_shrunk = surface_stats.shrunk;
+  }
+  for (std::size_t t = 0; t < cage.tet_count(); ++t) st.tets_bare += c.mass_fraction[t] > 0.0 && !has_sphere[t];
   return c;
 }
 

@@ -1,12 +1,17 @@
 #pragma once
-/// Stage "collision" (thesis III.D.2): collision spheres on a per-tet grid, and each
-/// tet's exact mass fraction and centre of mass.
+/// Stage "collision" (thesis III.D.2): collision spheres on a grid and on the render
+/// surface, and each tet's exact mass fraction and centre of mass.
 ///
-/// Spheres: a grid of spacing 2r shared by all tets (so neighbours line up across tet
-/// boundaries); a tet keeps the grid points inside itself and inside the solid; a
-/// non-empty tet that gets fewer than 3 halves r (on the same grid, refined) and
-/// rescans, up to `max_halvings` times. Spheres whose 26 grid neighbours are all
-/// present (at the same level) can never touch anything and are dropped.
+/// Spheres follow the solid, not the cage (issue 42): the radius comes from the render
+/// mesh's size, one grid of spacing 2r is shared by all tets, and each tet keeps the
+/// grid points inside itself and inside the solid, however few (the thesis halved r
+/// per tet until it had 3, so a finer cage multiplied the spheres: 6,787 on the sample
+/// bunny's 987-tet cage, 80,451 on its 10,024-tet one). A tet with solid but no sphere
+/// gets a stand-in from the player when fracture exposes it (stand_in_spheres.h).
+/// Spheres whose 26 grid neighbours are all present can never touch anything and are
+/// dropped; the others shrink so as not to poke out of the surface. Grid spheres fill
+/// the solid but leave its surface up to a cell away, so surface spheres
+/// (surface_spheres.h) reach the visible surface itself.
 ///
 /// Mass: the thesis estimates a tet's solid fraction from its spheres; we integrate it
 /// exactly instead. The region tet ∩ solid is bounded by the surface clipped to the
@@ -20,26 +25,41 @@
 
 #include "bake/face_regions.h"
 #include "bake/winding_number.h"
+#include "common/surface_mesh.h"
 #include "formats/bundle.h"
 
 namespace fissure::bake {
 
 /// About 10 s of the collision stage where every tet crosses the surface, and at most
-/// ~2 GiB where every tet is inside; the default radius implies ~45 points a tet, so
-/// this admits cages of millions of tets. A 12-triangle cube in the 10-tet sample cage
-/// at radius 1e-4 (2.3e9 estimated) took 31 s and 500 MB.
+/// ~2 GiB where every tet is inside. A 12-triangle cube in the 10-tet sample cage at
+/// radius 1e-4 (2.3e9 estimated) took 31 s and 500 MB.
 inline constexpr std::uint64_t kDefaultMaxGridPoints = 200'000'000;
 
+/// The sphere model, recorded in the bake options ("sphere_version") so that `status`
+/// reports bundles baked with another as stale. 1 (no key): a fifth of the median cage
+/// edge, halved per tet to 3 spheres; 2: the radius from the solid, one grid, surface
+/// spheres (issue 42).
+inline constexpr int kSphereVersion = 2;
+
+/// The default radius is this share of the cube root of the solid's volume: 4.1 mm on
+/// the 15 cm sample bunny (0.754 l), about the 4.16 mm the 987-tet cage's median edge
+/// gave it before.
+inline constexpr double kRadiusPerSize = 0.045;
+
+/// A grid sphere shrinks to its centre's distance from the surface, and is dropped
+/// below this share of the radius.
+inline constexpr double kLeastGridShare = 0.25;
+
 struct SphereOptions {
-  double radius = 0.0;        ///< target radius [m] (`--sphere-radius`); 0: a fifth of the median cage edge
-  int max_halvings = 4;       ///< how many times a tet may halve the radius to reach 3 spheres
+  double radius = 0.0;        ///< target radius [m] (`--sphere-radius`); 0: default_sphere_radius of the mesh
   bool cull_surrounded = true;  ///< drop spheres whose 26 grid neighbours are all present
+  bool surface = true;        ///< add the surface spheres (surface_spheres.h)
   /// The most grid points the radius may imply (estimated_grid_points) before the stage
   /// is refused; 0: no limit (`--no-work-limit`).
   std::uint64_t max_grid_points = kDefaultMaxGridPoints;
 };
 
-/// Throws fissure::Error for a negative or non-finite radius or a negative halving count.
+/// Throws fissure::Error for a negative or non-finite radius.
 void validate(const SphereOptions& options);
 
 /// The grid points the collision stage scans at spacing `spacing` (twice the radius):
@@ -47,18 +67,22 @@ void validate(const SphereOptions& options);
 double estimated_grid_points(const TetMesh& cage, double spacing);
 
 /// Throws fissure::Error, before any work, when the radius (given, or the default for
-/// this cage) implies more grid points than options.max_grid_points, with the estimate
+/// this mesh) implies more grid points than options.max_grid_points, with the estimate
 /// and the flag that forces it.
-void check_collision_work(const TetMesh& cage, const SphereOptions& options);
+void check_collision_work(const SurfaceMesh& mesh, const TetMesh& cage, const SphereOptions& options);
 
-/// The radius used when options.radius is 0: a fifth of the cage's median edge length.
-double default_sphere_radius(const TetMesh& cage);
+/// The radius used when options.radius is 0: kRadiusPerSize times the cube root of the
+/// volume the mesh encloses, or of a twentieth of its bounding box diagonal cubed where
+/// that is larger (an open or flat mesh encloses little), whatever the cage.
+double default_sphere_radius(const SurfaceMesh& mesh);
 
 struct CollisionStats {
-  std::size_t samples_kept = 0;      ///< before culling
-  std::size_t culled = 0;            ///< fully surrounded, dropped
-  std::size_t tets_halved = 0;       ///< tets that needed a smaller radius
-  std::size_t tets_short = 0;        ///< non-empty tets left with fewer than 3 spheres after every halving
+  std::size_t samples_kept = 0;    ///< grid points inside the solid, before culling
+  std::size_t culled = 0;          ///< fully surrounded, dropped
+  std::size_t near_surface = 0;    ///< grid spheres dropped: under kLeastGridShare r from the surface
+  std::size_t surface = 0;         ///< surface spheres
+  std::size_t surface_shrunk = 0;  ///< surface spheres made smaller to fit a thin part
+  std::size_t tets_bare = 0;       ///< tets with solid but no sphere (the player's stand-ins cover them)
 };
 
 formats::Collision bake_collision(const formats::Bundle& bundle, const FaceRegions& regions,

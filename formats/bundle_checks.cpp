@@ -191,15 +191,29 @@ VerifyCheck check_spheres(const Bundle& b) {
   const Collision& c = *b.collision;
   for (std::size_t s = 0; s < c.sphere_tet.size() && check.passed; ++s) {
     const Vec4& beta = c.sphere_barycentric[s];
-    if (!(beta.minCoeff() >= -1e-12) || !(std::abs(beta.sum() - 1.0) <= 1e-12) || !(c.sphere_radius[s] > 0.0) ||
+    // A sphere's centre is within the target radius of each face's plane of its tet (a
+    // surface sphere is centred up to that far from the surface point its tet holds).
+    // The distance to the plane of the face opposite corner i is βᵢ times that corner's
+    // height 3V / Aᵢ.
+    const TetIndex t = c.sphere_tet[s];
+    Vec3 x[4];
+    for (int i = 0; i < 4; ++i) x[i] = b.cage.rest_positions.col(b.cage.tets(i, t));
+    const double six_volume = std::abs((x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])));
+    bool reaches = six_volume > 0.0;
+    for (int i = 0; i < 4 && reaches; ++i) {
+      const Vec3 &p = x[(i + 1) % 4], &q = x[(i + 2) % 4], &r = x[(i + 3) % 4];
+      const double height = six_volume / (q - p).cross(r - p).norm();
+      reaches = beta[i] * height >= -c.target_radius * (1 + 1e-9) - 1e-12 * height;
+    }
+    if (!reaches || !(std::abs(beta.sum() - 1.0) <= 1e-12) || !(c.sphere_radius[s] > 0.0) ||
         !(c.sphere_radius[s] <= c.target_radius * (1 + 1e-12))) {
       check.passed = false;
-      check.detail = "sphere " + std::to_string(s) + " of tet " + std::to_string(c.sphere_tet[s]) +
-                     " lies outside its tet or has a bad radius";
+      check.detail = "sphere " + std::to_string(s) + " of tet " + std::to_string(t) +
+                     " is centred farther than the target radius from its tet, or has a bad radius";
     }
   }
   if (check.passed) {
-    check.detail = std::to_string(c.sphere_tet.size()) + " spheres inside their tets, radii ≤ the target " +
+    check.detail = std::to_string(c.sphere_tet.size()) + " spheres centred within the target radius of their tets, radii ≤ the target " +
                    format_double(c.target_radius);
   }
   return check;

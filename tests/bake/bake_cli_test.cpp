@@ -7,6 +7,8 @@
 #include <functional>
 #include <sstream>
 
+#include "bake/collision_proxies.h"
+#include "formats/bundle.h"
 #include "formats/cage_io.h"
 #include "tests/support/procedural.h"
 #include "tests/support/run_command.h"
@@ -152,6 +154,21 @@ TEST_F(BakePipeline, AChangedInputOptionOrMissingBundleIsStaleWithExit3) {
   EXPECT_NE(r.output.find("options differ: stages [\"embedding\",\"walls\",\"collision\"] -> [\"embedding\",\"walls\"], "
                           "wall_resolution 16 -> 32"),
             std::string::npos)
+      << r.output;
+}
+
+// Issue 42: a bundle whose spheres an older model made (before "sphere_version" was
+// recorded: model 1, a fifth of the cage edge with 3 spheres a tet) is stale.
+TEST_F(BakePipeline, ABundleWithSpheresOfAnOlderModelIsStale) {
+  formats::Bundle b = formats::read_bundle(bundle);
+  const std::string key = ",\"sphere_version\":" + std::to_string(bake::kSphereVersion);
+  const std::size_t at = b.metadata.bake_options.find(key);
+  ASSERT_NE(at, std::string::npos) << b.metadata.bake_options;
+  b.metadata.bake_options.erase(at, key.size());
+  formats::write_bundle(bundle, b);
+  const Result r = run("status " + quoted(bundle));
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("b.h5: stale\n  collision spheres of model 1; this bake makes model 2"), std::string::npos)
       << r.output;
 }
 

@@ -117,12 +117,12 @@ struct SphereGrid {
 };
 
 void sphere_sweep(const SurfaceMesh& mesh, const TetMesh& cage, const Plan& plan) {
-  const double base = bake::default_sphere_radius(cage);
+  const double base = bake::default_sphere_radius(mesh);
   std::printf("\n### Collision sphere radius: count, surface coverage, time\n\n");
   std::printf("Gap: distance from each render vertex to the nearest sphere surface (negative: inside a sphere), "
               "in units of the default radius %.4g.\n\n", base);
-  std::printf("| radius / default | spheres | culled | tets halved | mean gap | max gap | collision stage s |\n|---|---|---|---|---|---|---|\n");
-  testing::CsvTable csv(plan.csv, "spheres-bake", {"radius_over_default", "default_radius_m", "spheres", "culled", "tets_halved",
+  std::printf("| radius / default | spheres | culled | on the surface | mean gap | max gap | collision stage s |\n|---|---|---|---|---|---|---|\n");
+  testing::CsvTable csv(plan.csv, "spheres-bake", {"radius_over_default", "default_radius_m", "spheres", "culled", "surface_spheres",
                                                   "mean_gap_over_default", "max_gap_over_default", "collision_stage_s"});
   for (const double scale : plan.radius_scales) {
     bake::BakeOptions options;
@@ -150,9 +150,9 @@ void sphere_sweep(const SurfaceMesh& mesh, const TetMesh& cage, const Plan& plan
       worst = std::max(worst, gap);
     }
     std::printf("| %.2f | %zu | %zu | %zu | %.3f | %.3f | %.3f |\n", scale, b.collision->sphere_tet.size(),
-                stats.collision.culled, stats.collision.tets_halved, sum / static_cast<double>(mesh.vertex_count()) / base,
+                stats.collision.culled, stats.collision.surface, sum / static_cast<double>(mesh.vertex_count()) / base,
                 worst / base, stats.collision_s);
-    csv.row({scale, base, b.collision->sphere_tet.size(), stats.collision.culled, stats.collision.tets_halved,
+    csv.row({scale, base, b.collision->sphere_tet.size(), stats.collision.culled, stats.collision.surface,
              sum / static_cast<double>(mesh.vertex_count()) / base, worst / base, stats.collision_s});
   }
 }
