@@ -279,6 +279,23 @@ std::vector<Sample> cull_surrounded(const std::vector<Sample>& samples, bool cul
   return kept;
 }
 
+/// The bundle lists spheres by tet (docs/bundle-schema.md); grid spheres before surface
+/// ones within a tet.
+void sort_by_tet(formats::Collision& c) {
+  std::vector<std::size_t> order(c.sphere_tet.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return c.sphere_tet[x] < c.sphere_tet[y]; });
+  formats::Collision sorted;
+  for (const std::size_t k : order) {
+    sorted.sphere_tet.push_back(c.sphere_tet[k]);
+    sorted.sphere_barycentric.push_back(c.sphere_barycentric[k]);
+    sorted.sphere_radius.push_back(c.sphere_radius[k]);
+  }
+  c.sphere_tet = std::move(sorted.sphere_tet);
+  c.sphere_barycentric = std::move(sorted.sphere_barycentric);
+  c.sphere_radius = std::move(sorted.sphere_radius);
+}
+
 }  // namespace
 
 double estimated_grid_points(const TetMesh& cage, double spacing) {
@@ -366,6 +383,7 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
     st.surface_shrunk = surface_stats.shrunk;
   }
   for (std::size_t t = 0; t < cage.tet_count(); ++t) st.tets_bare += c.mass_fraction[t] > 0.0 && !has_sphere[t];
+  sort_by_tet(c);
   return c;
 }
 

@@ -64,7 +64,7 @@ struct BakeFlags {
         command->add_option("--wall-memory-budget", wall_budget_mib, "Largest wall tile data to bake, MiB")
             ->capture_default_str(),
         command->add_option("--sphere-radius", sphere_radius,
-                            "Target collision-sphere radius in mesh units (default: a fifth of the median cage edge)"),
+                            "Target collision-sphere radius in mesh units (default: 4.5 % of the cube root of the mesh's volume)"),
         command->add_option("--winding-accuracy", winding_accuracy,
                             "Fast winding-number accuracy beta (larger = more exact, slower)")
             ->check(CLI::Range(1.0, 100.0))

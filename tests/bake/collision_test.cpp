@@ -40,16 +40,21 @@ TEST(CollisionSpheres, GridSpheresAreInsideTheirTetsAndSurfaceSpheresReachTheSur
   const std::size_t count = b.collision->sphere_tet.size();
   ASSERT_GT(stats.surface, 50u);
   ASSERT_GT(count, stats.surface + 50u);
+  std::size_t inside_tet = 0, reaching = 0;
   for (std::size_t s = 0; s < count; ++s) {
     EXPECT_GE(winding.winding_number_direct(sphere_centre(b, s)), 0.5) << "sphere " << s;
-    if (s < count - stats.surface) {  // grid spheres first
-      EXPECT_GE(b.collision->sphere_barycentric[s].minCoeff(), 0.0) << "sphere " << s;
-    } else {
-      // The icosphere's surface is within 1.3 % of the unit sphere: each surface sphere's
-      // lowest point reaches it, and the whole sphere stays inside it.
-      EXPECT_NEAR(sphere_centre(b, s).norm() + b.collision->sphere_radius[s], 1.0, 0.015) << "sphere " << s;
+    if (s > 0) {
+      EXPECT_LE(b.collision->sphere_tet[s - 1], b.collision->sphere_tet[s]) << "sorted by tet (bundle schema)";
     }
+    // The icosphere's surface is within 1.3 % of the unit sphere: no sphere pokes out of
+    // it, and the surface spheres' lowest points reach it.
+    const double outermost = sphere_centre(b, s).norm() + b.collision->sphere_radius[s];
+    EXPECT_LE(outermost, 1.015) << "sphere " << s;
+    reaching += outermost >= 0.985;
+    inside_tet += b.collision->sphere_barycentric[s].minCoeff() >= 0.0;
   }
+  EXPECT_GE(reaching, stats.surface);
+  EXPECT_GE(inside_tet, count - stats.surface);  // every grid sphere, and the surface ones centred in their own tet
   EXPECT_EQ(stats.surface_shrunk, 0u);  // radius 0.08 fits a unit ball everywhere
   for (const formats::VerifyCheck& check : formats::verify_bundle(b).checks) {
     if (check.name == "collision-spheres") {
