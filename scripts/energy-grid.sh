@@ -2,7 +2,8 @@
 # The extremes grid of issue 16 on the sample bunny (out/bunny-5k.h5: run
 # scripts/bake-sample.sh first): each case is the sample scene with one value changed,
 # run with --no-energy-check so it goes on to the end; prints a Markdown table of peak
-# energy ÷ energy put in, fragments, splits and ms per step (mean, max).
+# energy ÷ energy put in, fragments, splits, ms per step (mean, max) and the deepest
+# sphere and render vertex in an obstacle.
 #   usage: scripts/energy-grid.sh [STEPS] [TIMEOUT_S]    (defaults 240, 300)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -38,8 +39,8 @@ cases=(
   "gravity 1e4|s/^gravity = .*/gravity = [0.0, -1e4, 0.0]/"
   "self-collision off|s/^self_collision = true/self_collision = false/"
 )
-echo "| case | peak ÷ put in | fragments | splits | ms/step mean | ms/step max | outcome |"
-echo "|---|---|---|---|---|---|---|"
+echo "| case | peak ÷ put in | fragments | splits | ms/step mean | ms/step max | sphere / vertex penetration mm | outcome |"
+echo "|---|---|---|---|---|---|---|---|"
 for entry in "${cases[@]}"; do
   name=${entry%%|*}
   expression=${entry#*|}
@@ -57,9 +58,10 @@ r = json.load(open(sys.argv[1]))
 s, t = r["summary"], r["timings"]["step"]
 put_in = s["energy_initial_J"] + s.get("energy_put_in_J", 0.0)
 print(f"| {sys.argv[2]} | {s['energy_max_J'] / put_in:.3g} | {s['fragments']} | {s['splits']} | "
-      f"{t['mean_ms']:.2f} | {t['max_ms']:.1f} | {sys.argv[3]} |")
+      f"{t['mean_ms']:.2f} | {t['max_ms']:.1f} | "
+      f"{1e3 * s['sphere_penetration_max_m']:.2f} / {1e3 * s['vertex_penetration_max_m']:.2f} | {sys.argv[3]} |")
 PY
   else
-    echo "| $name | – | – | – | – | – | $outcome, no report |"
+    echo "| $name | – | – | – | – | – | – | $outcome, no report |"
   fi
 done
