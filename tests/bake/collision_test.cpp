@@ -84,6 +84,24 @@ TEST(CollisionSpheres, SurfaceSpheresCoverEveryRenderVertex) {
   EXPECT_LT(worst, 0.35 * r);
 }
 
+TEST(CollisionSpheres, SurfaceSpheresShrinkToFitAThinPartAndNeverPokeOut) {
+  // A slab 0.1 thick with r = 0.08: a sphere centred r inside one face would reach 0.06
+  // out of the other. Halved (0.04), it fits: centred 0.04 in, 0.06 from the far face.
+  const double half = 0.05, r = 0.08;
+  const SurfaceMesh slab = testing::box_surface(Vec3(-1, -1, -half), Vec3(1, 1, half), 8);
+  const TetMesh cage = testing::grid_cage(Vec3(-1.2, -1.2, -0.3), Vec3(1.2, 1.2, 0.3), 4, 4, 2);
+  CollisionStats stats;
+  const formats::Bundle b = bake_collision_only(slab, cage, SphereOptions{.radius = r}, &stats);
+  ASSERT_GT(stats.surface, 100u);
+  EXPECT_EQ(stats.surface_shrunk, stats.surface);  // every face sample had to shrink
+  for (std::size_t s = 0; s < b.collision->sphere_tet.size(); ++s) {
+    const Vec3 c = sphere_centre(b, s);
+    const double radius = b.collision->sphere_radius[s];
+    EXPECT_LE(std::abs(c.z()) + radius, half + 1e-9) << "sphere " << s << " pokes out of the slab";
+    EXPECT_LE(c.cwiseAbs().head<2>().maxCoeff() + radius, 1.0 + 1e-9) << "sphere " << s;
+  }
+}
+
 TEST(CollisionSpheres, AFinerCageDoesNotMultiplyTheSpheres) {
   // The radius follows the mesh, not the cage, and no tet halves it: 8 times the tets
   // give about as many spheres (the thesis's rule of 3 per tet multiplied them).
