@@ -40,6 +40,11 @@ std::vector<std::filesystem::path> bake_inputs(const std::filesystem::path& mesh
   return inputs;
 }
 
+constexpr const char* kKeepHolesHelp =
+    "Keep a closed surface's through-holes open in the cage (as many as its genus), so the two sides of each can "
+    "separate; fails naming the count that would, where the cells are too coarse. Without it, holes narrower than a "
+    "few cells close";
+
 /// The flags that shape a bundle's content, shared by `bake` and `status` (which compares
 /// them with what a bundle was baked with).
 struct BakeFlags {
@@ -51,6 +56,7 @@ struct BakeFlags {
   double winding_accuracy = bake::BakeOptions{}.winding_accuracy;
   std::string tets;  ///< as typed, parsed by bake::parse_tet_count
   std::string method = bake::AutoCageOptions{}.method;
+  bool keep_holes = false;
   std::vector<CLI::Option*> options;  ///< to tell whether any was given
 
   void add_to(CLI::App* command) {
@@ -74,6 +80,7 @@ struct BakeFlags {
                             "How --tets makes the cage: lattice (trimmed cubes, fast) or wrap (alpha wrap + Mesh_3, "
                             "shape-following)")
             ->capture_default_str(),
+        command->add_flag("--keep-holes", keep_holes, kKeepHolesHelp),
     };
   }
 
@@ -110,9 +117,12 @@ struct BakeFlags {
     if (!tets.empty()) {
       options.cage.tets = bake::parse_tet_count(tets);
       options.cage.method = method;
+      options.cage.keep_holes = keep_holes;
       bake::validate(options.cage);
-    } else if (options_given("--method")) {
-      throw Error("--method chooses how --tets makes a cage, but no --tets was given", "add --tets N, or leave --method out");
+    } else if (options_given("--method") || options_given("--keep-holes")) {
+      throw Error(std::string(options_given("--method") ? "--method" : "--keep-holes") +
+                      " says how --tets makes a cage, but no --tets was given",
+                  "add --tets N, or leave it out");
     }
     return options;
   }
@@ -153,7 +163,7 @@ int run_bake(const std::string& mesh, const std::string& cage, const std::string
 
 struct CageArgs {
   std::string mesh, output, tets, method = bake::AutoCageOptions{}.method;
-  bool json = false, weld = false;
+  bool json = false, weld = false, keep_holes = false;
 };
 
 /// `fissure-bake cage`: makes a cage from a mesh, checks that it holds every surface
@@ -162,6 +172,7 @@ int run_cage(const CageArgs& args) {
   bake::AutoCageOptions options;
   options.tets = bake::parse_tet_count(args.tets);
   options.method = args.method;
+  options.keep_holes = args.keep_holes;
   bake::validate(options);
   if (!formats::is_cage_path(args.output)) {
     throw Error("-o " + args.output + ": not a cage file name",
@@ -337,6 +348,7 @@ void add_cage_command(Cli& cli) {
                       "lattice: trimmed cubes, 6 Kuhn tets each (min dihedral 45°, fast); wrap: an alpha-wrap envelope "
                       "meshed by CGAL Mesh_3 (shape-following, min dihedral 10°)")
       ->capture_default_str();
+  command->add_flag("--keep-holes", args.keep_holes, kKeepHolesHelp);
   command->add_flag("--weld", args.weld, "Merge vertices at identical positions even across normal/UV seams");
   command->add_flag("--json", args.json, "The cage's quality as JSON on stdout");
 }
