@@ -334,9 +334,9 @@ def cage_method(folder: Path):
                            color=colour, label=f"--method {method}")
     failed = [r for r in rows if r["failed"]]
     for r in failed:  # a count the method cannot reach is a finding: say so where the point would be
-        replication.annotate(f"{r['method']}: none at {r['tets_asked']}", (float(r["tets_asked"]), 0),
-                             xycoords=("data", "axes fraction"), xytext=(0, 6), textcoords="offset points",
-                             fontsize=7, rotation=90, color=CAGE_METHOD_STYLE[r["method"]][1])
+        replication.annotate(f"{r['method']}: none at {r['tets_asked']}", (float(r["tets_asked"]), 1),
+                             xycoords=("data", "axes fraction"), xytext=(2, -6), textcoords="offset points",
+                             fontsize=7, rotation=90, va="top", color=CAGE_METHOD_STYLE[r["method"]][1])
     replication.set(xlabel="cage tets", ylabel="instances per triangle", title="replication (draw cost)")
     ratio.axhline(1.2, color=EXACT, linestyle="--", linewidth=1, label="issue 43's bound (1.2×)")
     ratio.axhline(1.0, color=DEFAULTS, linewidth=1)
