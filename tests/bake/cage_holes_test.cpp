@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <regex>
 #include <string>
 
@@ -95,6 +96,23 @@ TEST(LatticeCage, KeepHolesKeepsATorusOpenOrNamesTheCountThatDoes) {
   // A surface with no holes makes the same cage with the flag as without it.
   const SurfaceMesh sphere = testing::icosphere(3);
   EXPECT_EQ(make_cage(sphere, asking(500, true), "s").mesh.tets, make_cage(sphere, asking(500, false), "s").mesh.tets);
+}
+
+// The wrap's alpha of two cells closes the fat torus's hole at 1,500 tets; with
+// --keep-holes it is wrapped again with half the alpha and keeps it, still contained,
+// near the count and at 10° or more.
+TEST(WrapCage, KeepHolesWrapsAgainFinerAndKeepsATorusOpen) {
+  const SurfaceMesh torus = testing::torus(1.0, 0.6, 48, 16);
+  AutoCageOptions options = asking(1500, false);
+  options.method = "wrap";
+  EXPECT_EQ(holes(make_cage(torus, options, "torus.obj").mesh), 0u);
+  options.keep_holes = true;
+  const AutoCage open = make_cage(torus, options, "torus.obj");
+  EXPECT_EQ(holes(open.mesh), 1u);
+  EXPECT_FALSE(line_meets_cage(open.mesh, 0.0, 0.0));
+  EXPECT_NO_THROW(check_cage_covers(torus, open.mesh, "torus", "wrap"));
+  EXPECT_LE(std::abs(static_cast<double>(open.mesh.tet_count()) / 1500.0 - 1.0), 0.15) << open.mesh.tet_count();
+  EXPECT_GE(measure_cage(torus, open.mesh).min_dihedral_deg, 10.0);
 }
 
 }  // namespace
