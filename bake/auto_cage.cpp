@@ -242,6 +242,8 @@ double search_wrap_cell(const SurfaceWrap& wrap, const WrapParameters& parameter
   return best_cell;
 }
 
+/// The wrap cage of about options.tets tets, its envelope's alpha and offset times `fine`
+/// (1; ½ and ¼ where --keep-holes needs narrower holes kept open).
 AutoCage wrap_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, const std::string& mesh_name, double fine) {
   const auto start = std::chrono::steady_clock::now();
   Vec3 lo = mesh.positions.rowwise().minCoeff(), hi = mesh.positions.rowwise().maxCoeff();
@@ -262,7 +264,8 @@ AutoCage wrap_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, cons
       cell = search_wrap_cell(wrap, parameters, estimate, options, cage.tries);
       cage.mesh = wrap.mesh_at(cell, facet_distance(parameters, cell), true);
       // Not where --keep-holes made the envelope finer: a coarser one would close the holes again.
-      if (lands(cage.mesh.tet_count(), options) || cage.mesh.tet_count() < options.tets || coarser == (fine < 1.0 ? 0 : 2)) break;
+      const int most_coarser = fine < 1.0 ? 0 : 2;
+      if (lands(cage.mesh.tet_count(), options) || cage.mesh.tet_count() < options.tets || coarser == most_coarser) break;
     }
     cage.cell = cell;
     if (!lands(cage.mesh.tet_count(), options)) throw_missed(mesh_name, options, cage.mesh.tet_count(), cell, cage.tries);

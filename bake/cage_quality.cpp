@@ -154,7 +154,8 @@ std::string quality_text(const CageQuality& q) {
                 q.mean_edge > 0 ? q.overhang_max / q.mean_edge : 0.0);
   text += buffer;
   if (q.surface_holes >= 0) {
-    std::snprintf(buffer, sizeof buffer, "holes: %zu through the cage, %td through the surface's solid\n", q.holes, q.surface_holes);
+    std::snprintf(buffer, sizeof buffer, "holes: %zu through the cage, %td through the surface's solid\n", q.holes,
+                  q.surface_holes);
   } else {
     std::snprintf(buffer, sizeof buffer, "holes: %zu through the cage (the surface is open)\n", q.holes);
   }

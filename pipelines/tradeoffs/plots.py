@@ -316,8 +316,10 @@ def cage_method(folder: Path):
     rows = read(folder, "cage-method.csv")
     if not rows:
         return None
-    fig, (replication, ratio, step, making) = figure(4, "Cage method at the hand-made cages' counts (bunny-5k; bunny-drop, fracture off, 1 thread)")
-    hand = {r["tets_asked"]: float(r["instances_per_triangle"]) for r in rows if r["method"] == "hand-made" and not r["failed"]}
+    fig, (replication, ratio, step, making) = figure(
+        4, "Cage method at the hand-made cages' counts (bunny-5k; bunny-drop, fracture off, 1 thread)")
+    hand = {r["tets_asked"]: float(r["instances_per_triangle"])
+            for r in rows if r["method"] == "hand-made" and not r["failed"]}
     for method, (style, colour) in CAGE_METHOD_STYLE.items():
         made = sorted((r for r in rows if r["method"] == method and not r["failed"]), key=lambda r: float(r["tets"]))
         if not made:

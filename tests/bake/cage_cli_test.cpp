@@ -162,7 +162,8 @@ TEST(CageCli, AMeshPastTheMemoryLimitIsRefusedBeforeItIsRead) {
     stl.write(header.data(), 80).write(reinterpret_cast<const char*>(count), 4);
   }
   std::filesystem::resize_file(huge, 84 + 50ull * 10'000'000);
-  for (const std::string& command : {"cage --tets 1000 -o " + quoted(dir / "c.node"), "bake --tets 1000 -o " + quoted(dir / "b.h5")}) {
+  for (const std::string& command :
+       {"cage --tets 1000 -o " + quoted(dir / "c.node"), "bake --tets 1000 -o " + quoted(dir / "b.h5")}) {
     const auto start = std::chrono::steady_clock::now();
     const Result r = run(command + " --mesh " + quoted(huge) + " --memory-limit 4");
     EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
