@@ -115,25 +115,20 @@ std::string holes_kept(std::size_t kept, std::size_t keep) {
   return "keeps " + std::to_string(kept) + " of the surface's " + std::to_string(keep) + " through-holes open";
 }
 
-/// The lattice closed some of the surface's holes: cells a tenth smaller at a time until
-/// one keeps them all, so the error can name the count that does.
-[[noreturn]] void throw_lattice_closes_holes(const SurfaceMesh& mesh, const WindingNumberTree& winding, LatticeGrid grid,
-                                             std::size_t kept, std::size_t keep, const AutoCageOptions& options,
-                                             const std::string& mesh_name) {
-  std::size_t needed = 0;
-  for (int step = 0; step < 30 && needed == 0; ++step) {
-    grid.cell *= 0.9;
-    const LatticeCage finer = build_lattice_cage(mesh, winding, grid);
-    if (finer.mesh.tet_count() == 0 || finer.mesh.tet_count() > kMaxCageTets) break;
-    if (holes_of(finer.mesh) >= keep) needed = finer.mesh.tet_count();
+/// The first of the 27 placements of a grid of cells `cell` (phase ¼, ½ or ¾ of the slack
+/// per axis) whose cage keeps `keep` holes and whose count `accept` takes.
+template <typename Accept>
+std::optional<LatticeCage> placement_keeping_holes(const SurfaceMesh& mesh, const WindingNumberTree& winding, double cell,
+                                                   const Vec3& stretch, std::size_t keep, std::size_t& tries,
+                                                   const Accept& accept) {
+  constexpr double kPhases[3] = {0.5, 0.25, 0.75};
+  for (int combo = 0; combo < 27; ++combo) {
+    const Vec3 phase(kPhases[combo % 3], kPhases[(combo / 3) % 3], kPhases[combo / 9]);
+    LatticeCage lattice = build_lattice_cage(mesh, winding, LatticeGrid{cell, phase, stretch});
+    ++tries;
+    if (accept(lattice.mesh.tet_count()) && holes_of(lattice.mesh) >= keep) return lattice;
   }
-  throw Error(mesh_name + ": --keep-holes: the lattice cage of about " + std::to_string(options.tets) + " tets " +
-                  holes_kept(kept, keep) + " (a hole closes where it is narrower than a few cells)",
-              needed > 0 ? "the lattice keeps all " + std::to_string(keep) + " from about " + std::to_string(needed) +
-                               " tets: ask for --tets " + std::to_string(needed) +
-                               " or more, or leave out --keep-holes and let them close"
-                         : "no lattice of up to " + std::to_string(kMaxCageTets) +
-                               " tets keeps them all; leave out --keep-holes, or make a cage by hand");
+  return std::nullopt;
 }
 
 /// Where the searched grid closes a hole, another placement of it, or a cell a few
@@ -141,17 +136,38 @@ std::string holes_kept(std::size_t kept, std::size_t keep) {
 std::optional<LatticeCage> lattice_keeping_holes(const SurfaceMesh& mesh, const WindingNumberTree& winding,
                                                  const LatticeGrid& found, std::size_t keep, const AutoCageOptions& options,
                                                  std::size_t& tries) {
-  constexpr double kPhases[3] = {0.5, 0.25, 0.75};
   for (const double scale : {1.0, 0.97, 0.94, 1.03}) {
-    for (int combo = 0; combo < 27; ++combo) {
-      const LatticeGrid grid{found.cell * scale, Vec3(kPhases[combo % 3], kPhases[(combo / 3) % 3], kPhases[combo / 9]),
-                             found.stretch};
-      LatticeCage lattice = build_lattice_cage(mesh, winding, grid);
-      ++tries;
-      if (lands(lattice.mesh.tet_count(), options) && holes_of(lattice.mesh) >= keep) return lattice;
-    }
+    auto lattice = placement_keeping_holes(mesh, winding, found.cell * scale, found.stretch, keep, tries,
+                                           [&](std::size_t tets) { return lands(tets, options); });
+    if (lattice) return lattice;
   }
   return std::nullopt;
+}
+
+/// The lattice closed some of the surface's holes at every placement near the count:
+/// cells a tenth smaller at a time, each at every placement, until one keeps them all,
+/// so the error can name the count that does.
+[[noreturn]] void throw_lattice_closes_holes(const SurfaceMesh& mesh, const WindingNumberTree& winding, LatticeGrid grid,
+                                             std::size_t kept, std::size_t keep, const AutoCageOptions& options,
+                                             const std::string& mesh_name) {
+  std::size_t needed = 0, tries = 0;
+  for (int step = 0; step < 30 && needed == 0; ++step) {
+    grid.cell *= 0.9;
+    bool too_fine = false;
+    const auto finer = placement_keeping_holes(mesh, winding, grid.cell, grid.stretch, keep, tries, [&](std::size_t tets) {
+      too_fine = too_fine || tets == 0 || tets > kMaxCageTets;
+      return !too_fine;
+    });
+    if (finer) needed = finer->mesh.tet_count();
+    if (too_fine) break;
+  }
+  throw Error(mesh_name + ": --keep-holes: the lattice cage of about " + std::to_string(options.tets) + " tets " +
+                  holes_kept(kept, keep) + " (a hole closes where it is narrower than a few cells)",
+              needed > 0 ? "the lattice keeps all " + std::to_string(keep) + " at about " + std::to_string(needed) +
+                               " tets: ask for --tets " + std::to_string(needed) +
+                               " or more, or leave out --keep-holes and let them close"
+                         : "no lattice of up to " + std::to_string(kMaxCageTets) +
+                               " tets keeps them all; leave out --keep-holes, or make a cage by hand");
 }
 
 AutoCage lattice_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, const std::string& mesh_name,
