@@ -9,6 +9,7 @@
 #include <optional>
 #include <iostream>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -51,7 +52,8 @@ std::uint64_t memory_limit_bytes(const std::optional<double>& gib) {
   if (!(*gib > 0.0) || !std::isfinite(*gib)) {
     throw Error("--memory-limit must be a positive number of GiB", "leave it out for the machine's memory");
   }
-  return static_cast<std::uint64_t>(*gib * 1024.0 * 1024.0 * 1024.0);
+  const double bytes = *gib * 1024.0 * 1024.0 * 1024.0;
+  return bytes >= 1.8e19 ? std::numeric_limits<std::uint64_t>::max() : static_cast<std::uint64_t>(bytes);
 }
 
 constexpr const char* kKeepHolesHelp =
