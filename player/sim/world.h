@@ -85,8 +85,9 @@ struct WorldSettings {
   /// at most this share of what is left. 0: every gain is solved again. The re-solve is
   /// Newton iterations over the whole body: on the sample in the 10,024-tet cage, seven
   /// gains of 6 µJ–11 mJ (at most 0.04 % of the run's 30 J dissipated) took 0.4–1.7 s
-  /// each, the run's slowest steps (issue 42).
-  double exact_gain_share = 0.0;
+  /// each, the run's slowest steps (issue 42;
+  /// docs/decisions/0057-exact-resolve-above-a-share-of-what-was-dissipated.md).
+  double exact_gain_share = 0.01;
   /// A substep that still ends above its energy budget after the repairs above, and
   /// above all the world was given (its energy when built plus what was put in since),
   /// is taken again as two halves from its start, at most this many times in a row (so
