@@ -6,10 +6,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 #include "bake/bake.h"
 #include "bake/cage_quality.h"
+#include "bake/cage_topology.h"
 #include "bake/exact_predicates.h"
 #include "bake/lattice_cage.h"
 #include "bake/surface_orientation.h"
@@ -93,15 +95,99 @@ bool lands(std::size_t made, const AutoCageOptions& options) {
                   : "ask for " + std::to_string(nearest) + " tets, or a larger count");
 }
 
+std::size_t holes_of(const TetMesh& cage) { return cage_holes(cage, build_cage_faces(cage, "the automatic cage")); }
+
+/// The through-holes the cage must keep: the surface's genus with --keep-holes; none
+/// without it, or for an open surface, whose holes are not defined (a warning says so).
+std::size_t holes_to_keep(const SurfaceMesh& mesh, const AutoCageOptions& options, const std::string& mesh_name) {
+  if (!options.keep_holes) return 0;
+  const auto holes = surface_holes(mesh);
+  if (!holes) {
+    log_warning(mesh_name + ": --keep-holes: the surface is open (or not a manifold), so it has no through-holes to "
+                            "count; the cage is made as without it");
+    return 0;
+  }
+  log_debug(mesh_name + ": " + std::to_string(*holes) + " through-holes to keep");
+  return *holes;
+}
+
+std::string holes_kept(std::size_t kept, std::size_t keep) {
+  return "keeps " + std::to_string(kept) + " of the surface's " + std::to_string(keep) + " through-holes open";
+}
+
+/// The first of the 27 placements of a grid of cells `cell` (phase ¼, ½ or ¾ of the slack
+/// per axis) whose cage keeps `keep` holes and whose count `accept` takes.
+template <typename Accept>
+std::optional<LatticeCage> placement_keeping_holes(const SurfaceMesh& mesh, const WindingNumberTree& winding, double cell,
+                                                   const Vec3& stretch, std::size_t keep, std::size_t& tries,
+                                                   const Accept& accept) {
+  constexpr double kPhases[3] = {0.5, 0.25, 0.75};
+  for (int combo = 0; combo < 27; ++combo) {
+    const Vec3 phase(kPhases[combo % 3], kPhases[(combo / 3) % 3], kPhases[combo / 9]);
+    LatticeCage lattice = build_lattice_cage(mesh, winding, LatticeGrid{cell, phase, stretch});
+    ++tries;
+    if (accept(lattice.mesh.tet_count()) && holes_of(lattice.mesh) >= keep) return lattice;
+  }
+  return std::nullopt;
+}
+
+/// Where the searched grid closes a hole, another placement of it, or a cell a few
+/// percent larger or smaller, may keep them all and still land near the count.
+std::optional<LatticeCage> lattice_keeping_holes(const SurfaceMesh& mesh, const WindingNumberTree& winding,
+                                                 const LatticeGrid& found, std::size_t keep, const AutoCageOptions& options,
+                                                 std::size_t& tries) {
+  for (const double scale : {1.0, 0.97, 0.94, 1.03}) {
+    auto lattice = placement_keeping_holes(mesh, winding, found.cell * scale, found.stretch, keep, tries,
+                                           [&](std::size_t tets) { return lands(tets, options); });
+    if (lattice) return lattice;
+  }
+  return std::nullopt;
+}
+
+/// The lattice closed some of the surface's holes at every placement near the count:
+/// cells a tenth smaller at a time, each at every placement, until one keeps them all,
+/// so the error can name the count that does.
+[[noreturn]] void throw_lattice_closes_holes(const SurfaceMesh& mesh, const WindingNumberTree& winding, LatticeGrid grid,
+                                             std::size_t kept, std::size_t keep, const AutoCageOptions& options,
+                                             const std::string& mesh_name) {
+  std::size_t needed = 0, tries = 0;
+  for (int step = 0; step < 30 && needed == 0; ++step) {
+    grid.cell *= 0.9;
+    bool too_fine = false;
+    const auto finer = placement_keeping_holes(mesh, winding, grid.cell, grid.stretch, keep, tries, [&](std::size_t tets) {
+      too_fine = too_fine || tets == 0 || tets > kMaxCageTets;
+      return !too_fine;
+    });
+    if (finer) needed = finer->mesh.tet_count();
+    if (too_fine) break;
+  }
+  throw Error(mesh_name + ": --keep-holes: the lattice cage of about " + std::to_string(options.tets) + " tets " +
+                  holes_kept(kept, keep) + " (a hole closes where it is narrower than a few cells)",
+              needed > 0 ? "the lattice keeps all " + std::to_string(keep) + " at about " + std::to_string(needed) +
+                               " tets: ask for --tets " + std::to_string(needed) +
+                               " or more, or leave out --keep-holes and let them close"
+                         : "no lattice of up to " + std::to_string(kMaxCageTets) +
+                               " tets keeps them all; leave out --keep-holes, or make a cage by hand");
+}
+
 AutoCage lattice_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, const std::string& mesh_name,
                       double winding_accuracy) {
   const auto start = std::chrono::steady_clock::now();
   const WindingNumberTree winding(mesh, winding_accuracy);
   AutoCage cage;
   cage.method = options.method;
-  const LatticeGrid grid = search_lattice_grid(mesh, winding, options.tets, options.tolerance, &cage.tries);
+  LatticeGrid grid = search_lattice_grid(mesh, winding, options.tets, options.tolerance, &cage.tries);
   LatticeCage lattice = build_lattice_cage(mesh, winding, grid);
   if (!lands(lattice.mesh.tet_count(), options)) throw_missed(mesh_name, options, lattice.mesh.tet_count(), grid.cell, cage.tries);
+  if (const std::size_t keep = holes_to_keep(mesh, options, mesh_name); keep > 0) {
+    const std::size_t kept = holes_of(lattice.mesh);
+    if (kept < keep) {
+      auto other = lattice_keeping_holes(mesh, winding, grid, keep, options, cage.tries);
+      if (!other) throw_lattice_closes_holes(mesh, winding, grid, kept, keep, options, mesh_name);
+      lattice = std::move(*other);
+      grid = lattice.grid;
+    }
+  }
   cage.mesh = std::move(lattice.mesh);
   cage.cell = grid.cell;
   cage.bridge_cubes = lattice.bridge_cubes;
@@ -133,8 +219,11 @@ void warn_below_10_degrees(const TetMesh& cage) {
 /// The wrap's envelope, made from the first estimate of the cell, `estimate` (so the
 /// search cannot inflate the envelope with the cell and find the count on a balloon: a
 /// coarser envelope needing as many tets as a finer one): gaps wider than about two
-/// cells stay open, and it stands half a cell out (times `grow` after a miss).
-WrapParameters wrap_parameters(double estimate, double grow) { return {2.0 * estimate, grow * estimate / 2.0}; }
+/// cells stay open, and it stands half a cell out (times `grow` after a miss); both
+/// times `fine` where --keep-holes needs narrower holes kept open.
+WrapParameters wrap_parameters(double estimate, double grow, double fine) {
+  return {2.0 * estimate * fine, grow * estimate * fine / 2.0};
+}
 
 /// Mesh_3's boundary keeps within an eighth of the cell of the envelope, and within half
 /// its clearance, so the cage cannot cut into the surface by more than Mesh_3's
@@ -169,7 +258,9 @@ double search_wrap_cell(const SurfaceWrap& wrap, const WrapParameters& parameter
   return best_cell;
 }
 
-AutoCage wrap_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, const std::string& mesh_name) {
+/// The wrap cage of about options.tets tets, its envelope's alpha and offset times `fine`
+/// (1; ½ and ¼ where --keep-holes needs narrower holes kept open).
+AutoCage wrap_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, const std::string& mesh_name, double fine) {
   const auto start = std::chrono::steady_clock::now();
   Vec3 lo = mesh.positions.rowwise().minCoeff(), hi = mesh.positions.rowwise().maxCoeff();
   // A first cell from the box: Mesh_3's tets of circumradius r hold about r³/2 each,
@@ -184,11 +275,13 @@ AutoCage wrap_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, cons
     // An envelope whose surface alone needs more tets than asked (a thin or detailed
     // shape: the box's estimate is too fine) is made coarser, twice at most.
     for (int coarser = 0;; ++coarser, estimate *= 1.6) {
-      parameters = wrap_parameters(estimate, grow);
+      parameters = wrap_parameters(estimate, grow, fine);
       const SurfaceWrap wrap(mesh, parameters);
       cell = search_wrap_cell(wrap, parameters, estimate, options, cage.tries);
       cage.mesh = wrap.mesh_at(cell, facet_distance(parameters, cell), true);
-      if (lands(cage.mesh.tet_count(), options) || cage.mesh.tet_count() < options.tets || coarser == 2) break;
+      // Not where --keep-holes made the envelope finer: a coarser one would close the holes again.
+      const int most_coarser = fine < 1.0 ? 0 : 2;
+      if (lands(cage.mesh.tet_count(), options) || cage.mesh.tet_count() < options.tets || coarser == most_coarser) break;
     }
     cage.cell = cell;
     if (!lands(cage.mesh.tet_count(), options)) throw_missed(mesh_name, options, cage.mesh.tet_count(), cell, cage.tries);
@@ -213,6 +306,31 @@ AutoCage wrap_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, cons
   return cage;
 }
 
+/// The wrap, wrapped again with half and then a quarter of its alpha and offset while it
+/// keeps fewer holes than `keep` (the surface's genus, with --keep-holes).
+AutoCage wrap_cage_keeping_holes(const SurfaceMesh& mesh, const AutoCageOptions& options, const std::string& mesh_name) {
+  const std::size_t keep = holes_to_keep(mesh, options, mesh_name);
+  for (double fine = 1.0;; fine /= 2.0) {
+    AutoCage cage;
+    try {
+      cage = wrap_cage(mesh, options, mesh_name, fine);
+    } catch (const Error& e) {
+      if (fine == 1.0) throw;
+      throw Error(mesh_name + ": --keep-holes: a finer wrap (" + (fine == 0.5 ? "half" : "a quarter") +
+                      " of its alpha) that might keep the holes could not be made: " + e.what(),
+                  "ask for more tets, use --method lattice --keep-holes, or leave out --keep-holes");
+    }
+    const std::size_t kept = keep > 0 ? holes_of(cage.mesh) : 0;
+    if (kept >= keep) return cage;
+    if (fine < 0.3) {
+      throw Error(mesh_name + ": --keep-holes: the wrap cage of about " + std::to_string(options.tets) + " tets " +
+                      holes_kept(kept, keep) + ", even with a quarter of its alpha",
+                  "ask for more tets, use --method lattice --keep-holes, or leave out --keep-holes");
+    }
+    log_info("  the wrap cage " + holes_kept(kept, keep) + "; wrapping again with half its alpha");
+  }
+}
+
 }  // namespace
 
 AutoCage make_cage(const SurfaceMesh& input, const AutoCageOptions& options, const std::string& mesh_name,
@@ -224,7 +342,7 @@ AutoCage make_cage(const SurfaceMesh& input, const AutoCageOptions& options, con
   orient_surface(mesh);
   if (options.method != "wrap") return lattice_cage(mesh, options, mesh_name, winding_accuracy);
   try {
-    return wrap_cage(mesh, options, mesh_name);
+    return wrap_cage_keeping_holes(mesh, options, mesh_name);
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {  // a CGAL precondition on input it cannot wrap or mesh

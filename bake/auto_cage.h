@@ -23,6 +23,10 @@ struct AutoCageOptions {
   std::string method = "lattice";  ///< "lattice" (lattice_cage.h) or "wrap" (wrap_cage.h)
   std::size_t tets = 0;            ///< asked; 0: no automatic cage (a cage file is given)
   double tolerance = 0.15;         ///< the made count lies within ±tolerance·tets
+  /// Keep a closed surface's through-holes open in the cage (at least as many holes as
+  /// its genus), or fail naming the count that would: `--keep-holes`. Without it, holes
+  /// narrower than a few cells close.
+  bool keep_holes = false;
   [[nodiscard]] bool enabled() const { return tets > 0; }
 };
 
@@ -47,7 +51,9 @@ void validate(const AutoCageOptions& options);
 /// mesh with no area, a flat mesh, or a count that cannot be met within the tolerance.
 /// Lattice: containment by construction (the bake checks it again, check_cage_covers);
 /// wrap: checked here, and a wrap that misses part of the surface is remade with 1.5×
-/// then 2.25× the clearance before the call fails.
+/// then 2.25× the clearance before the call fails. With keep_holes, a cage with fewer
+/// holes than the surface's genus is an error naming the count that keeps them (lattice)
+/// or is wrapped again with a finer envelope (wrap; half, then a quarter of its alpha).
 AutoCage make_cage(const SurfaceMesh& mesh, const AutoCageOptions& options, const std::string& mesh_name,
                    double winding_accuracy = 3.0);
 

@@ -306,6 +306,7 @@ std::string BakeOptions::to_json() const {
     j.key("cage_tets").value(static_cast<std::uint64_t>(cage.tets));
     j.key("cage_tolerance").value(cage.tolerance);
     j.key("cage_version").value(kAutoCageVersion);
+    if (cage.keep_holes) j.key("cage_keep_holes").value(true);  // absent otherwise: older bundles stay current
   }
   j.end_object();
   return j.str();

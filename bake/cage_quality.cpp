@@ -7,6 +7,7 @@
 #include <numeric>
 #include <vector>
 
+#include "bake/cage_topology.h"
 #include "bake/surface_distance.h"
 #include "common/json_writer.h"
 #include "common/union_find.h"
@@ -114,6 +115,8 @@ CageQuality measure_cage(const SurfaceMesh& mesh, const TetMesh& cage) {
   q.solid_volume = enclosed_volume(mesh);
   const CageFaces faces = build_cage_faces(cage, "the cage");
   q.pieces = face_connected_pieces(cage, faces);
+  q.holes = cage_holes(cage, faces);
+  if (const auto holes = surface_holes(mesh)) q.surface_holes = static_cast<std::ptrdiff_t>(*holes);
   const SurfaceMesh hull = boundary_surface(cage, faces);
   const SurfaceDistance to_hull(hull), to_surface(mesh);
   q.clearance_min = std::numeric_limits<double>::infinity();
@@ -149,6 +152,13 @@ std::string quality_text(const CageQuality& q) {
                 q.cage_volume, q.solid_volume, q.solid_volume > 0 ? q.cage_volume / q.solid_volume : 0.0, q.clearance_min,
                 q.mean_edge > 0 ? q.clearance_min / q.mean_edge : 0.0, q.overhang_max,
                 q.mean_edge > 0 ? q.overhang_max / q.mean_edge : 0.0);
+  text += buffer;
+  if (q.surface_holes >= 0) {
+    std::snprintf(buffer, sizeof buffer, "holes: %zu through the cage, %td through the surface's solid\n", q.holes,
+                  q.surface_holes);
+  } else {
+    std::snprintf(buffer, sizeof buffer, "holes: %zu through the cage (the surface is open)\n", q.holes);
+  }
   return text + buffer;
 }
 
@@ -164,6 +174,8 @@ std::string quality_json(const CageQuality& q) {
   j.key("degenerate_tets").value(static_cast<std::uint64_t>(q.degenerate_tets));
   j.key("mean_edge").value(q.mean_edge).key("cage_volume").value(q.cage_volume).key("solid_volume").value(q.solid_volume);
   j.key("clearance_min").value(q.clearance_min).key("overhang_max").value(q.overhang_max);
+  j.key("holes").value(static_cast<std::uint64_t>(q.holes));
+  if (q.surface_holes >= 0) j.key("surface_holes").value(static_cast<std::uint64_t>(q.surface_holes));
   j.end_object();
   return j.str() + "\n";
 }

@@ -28,6 +28,9 @@ struct CageQuality {
   /// The largest distance from a boundary node of the cage to the surface: how far
   /// the cage reaches beyond it.
   double overhang_max = 0;
+  std::size_t holes = 0;  ///< the cage's through-holes (cage_topology.h)
+  /// The surface's (the sum of its genus), or -1 where it is open and holes are not defined.
+  std::ptrdiff_t surface_holes = -1;
 };
 
 /// Measures `cage` around `mesh` (the mesh is only used for volume and clearance).
@@ -36,7 +39,8 @@ CageQuality measure_cage(const SurfaceMesh& mesh, const TetMesh& cage);
 /// Dihedral angles of one tet, in degrees, at its 6 edges.
 std::array<double, 6> dihedral_angles_deg(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
 
-/// Several lines for people: counts, dihedral range and histogram, pieces, volumes, clearance.
+/// Several lines for people: counts, dihedral range and histogram, pieces, volumes,
+/// clearance, holes.
 std::string quality_text(const CageQuality& quality);
 std::string quality_json(const CageQuality& quality);
 

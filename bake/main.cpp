@@ -9,11 +9,13 @@
 #include <optional>
 #include <iostream>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <vector>
 
 #include "bake/auto_cage.h"
 #include "bake/bake.h"
+#include "bake/memory_estimate.h"
 #include "bake/cage_quality.h"
 #include "bake/bundle_status.h"
 #include "bake/replication.h"
@@ -40,6 +42,25 @@ std::vector<std::filesystem::path> bake_inputs(const std::filesystem::path& mesh
   return inputs;
 }
 
+constexpr const char* kMemoryLimitHelp =
+    "Refuse a mesh whose estimated memory (from its header or size, before reading it) is past this many GiB "
+    "(default: the machine's memory)";
+
+/// --memory-limit in bytes: the machine's memory when it was not given.
+std::uint64_t memory_limit_bytes(const std::optional<double>& gib) {
+  if (!gib) return bake::machine_memory_bytes();
+  if (!(*gib > 0.0) || !std::isfinite(*gib)) {
+    throw Error("--memory-limit must be a positive number of GiB", "leave it out for the machine's memory");
+  }
+  const double bytes = *gib * 1024.0 * 1024.0 * 1024.0;
+  return bytes >= 1.8e19 ? std::numeric_limits<std::uint64_t>::max() : static_cast<std::uint64_t>(bytes);
+}
+
+constexpr const char* kKeepHolesHelp =
+    "Keep a closed surface's through-holes open in the cage (as many as its genus), so the two sides of each can "
+    "separate; fails naming the count that would, where the cells are too coarse. Without it, holes narrower than a "
+    "few cells close";
+
 /// The flags that shape a bundle's content, shared by `bake` and `status` (which compares
 /// them with what a bundle was baked with).
 struct BakeFlags {
@@ -51,6 +72,7 @@ struct BakeFlags {
   double winding_accuracy = bake::BakeOptions{}.winding_accuracy;
   std::string tets;  ///< as typed, parsed by bake::parse_tet_count
   std::string method = bake::AutoCageOptions{}.method;
+  bool keep_holes = false;
   std::vector<CLI::Option*> options;  ///< to tell whether any was given
 
   void add_to(CLI::App* command) {
@@ -74,6 +96,7 @@ struct BakeFlags {
                             "How --tets makes the cage: lattice (trimmed cubes, fast) or wrap (alpha wrap + Mesh_3, "
                             "shape-following)")
             ->capture_default_str(),
+        command->add_flag("--keep-holes", keep_holes, kKeepHolesHelp),
     };
   }
 
@@ -110,15 +133,19 @@ struct BakeFlags {
     if (!tets.empty()) {
       options.cage.tets = bake::parse_tet_count(tets);
       options.cage.method = method;
+      options.cage.keep_holes = keep_holes;
       bake::validate(options.cage);
-    } else if (options_given("--method")) {
-      throw Error("--method chooses how --tets makes a cage, but no --tets was given", "add --tets N, or leave --method out");
+    } else if (options_given("--method") || options_given("--keep-holes")) {
+      throw Error(std::string(options_given("--method") ? "--method" : "--keep-holes") +
+                      " says how --tets makes a cage, but no --tets was given",
+                  "add --tets N, or leave it out");
     }
     return options;
   }
 };
 
-int run_bake(const std::string& mesh, const std::string& cage, const std::string& output, const bake::BakeOptions& options) {
+int run_bake(const std::string& mesh, const std::string& cage, const std::string& output, const bake::BakeOptions& options,
+             std::uint64_t memory_limit) {
   if (cage.empty() == !options.cage.enabled()) {
     throw Error(cage.empty() ? "bake needs a cage: give --cage FILE, or --tets N to make one from the mesh"
                              : "--cage and --tets both give the cage; use one of them",
@@ -126,6 +153,7 @@ int run_bake(const std::string& mesh, const std::string& cage, const std::string
   }
   // A bad output path fails now, not after the bake.
   check_output_path(output, cage.empty() ? std::vector<std::filesystem::path>{mesh} : bake_inputs(mesh, cage), "-o");
+  bake::check_bake_memory(mesh, options.cage.tets, memory_limit);
   const StageTimer total("bake total");
   formats::Bundle bundle = cage.empty() ? bake::bake_with_auto_cage(mesh, options) : bake::bake_files(mesh, cage, options);
   bake::record_input_paths(bundle.metadata, mesh, cage, output);
@@ -153,7 +181,8 @@ int run_bake(const std::string& mesh, const std::string& cage, const std::string
 
 struct CageArgs {
   std::string mesh, output, tets, method = bake::AutoCageOptions{}.method;
-  bool json = false, weld = false;
+  bool json = false, weld = false, keep_holes = false;
+  std::optional<double> memory_limit_gib;
 };
 
 /// `fissure-bake cage`: makes a cage from a mesh, checks that it holds every surface
@@ -162,12 +191,14 @@ int run_cage(const CageArgs& args) {
   bake::AutoCageOptions options;
   options.tets = bake::parse_tet_count(args.tets);
   options.method = args.method;
+  options.keep_holes = args.keep_holes;
   bake::validate(options);
   if (!formats::is_cage_path(args.output)) {
     throw Error("-o " + args.output + ": not a cage file name",
                 "name it .node (TetGen: writes .node and .ele), .msh (Gmsh 2.2) or .mesh (MEDIT)");
   }
   for (const auto& file : formats::cage_files(args.output)) check_output_path(file, {args.mesh}, "-o");
+  bake::check_bake_memory(args.mesh, options.tets, memory_limit_bytes(args.memory_limit_gib));
   bake::MeshImportOptions import;
   import.weld = args.weld;
   const bake::ImportedMesh imported = bake::import_render_mesh(args.mesh, import);
@@ -299,6 +330,7 @@ struct Cli {
   std::string mesh, cage, output;
   BakeFlags bake_flags;
   bool no_work_limit = false;
+  std::optional<double> memory_limit_gib;
   std::string bundle_path;
   bool json = false;
   StatusArgs status_args;
@@ -322,6 +354,7 @@ void add_bake_command(Cli& cli) {
   bake_cmd->add_flag("--no-work-limit", cli.no_work_limit,
                      "Run a stage whose estimated work is past its limit (a very small --sphere-radius, a very "
                      "large --wall-res), however long it takes");
+  bake_cmd->add_option("--memory-limit", cli.memory_limit_gib, kMemoryLimitHelp);
 }
 
 void add_cage_command(Cli& cli) {
@@ -337,6 +370,8 @@ void add_cage_command(Cli& cli) {
                       "lattice: trimmed cubes, 6 Kuhn tets each (min dihedral 45°, fast); wrap: an alpha-wrap envelope "
                       "meshed by CGAL Mesh_3 (shape-following, min dihedral 10°)")
       ->capture_default_str();
+  command->add_flag("--keep-holes", args.keep_holes, kKeepHolesHelp);
+  command->add_option("--memory-limit", args.memory_limit_gib, kMemoryLimitHelp);
   command->add_flag("--weld", args.weld, "Merge vertices at identical positions even across normal/UV seams");
   command->add_flag("--json", args.json, "The cage's quality as JSON on stdout");
 }
@@ -395,7 +430,7 @@ int run_command(const Cli& cli) {
       options.spheres.max_grid_points = 0;
       options.wall.max_work = 0;
     }
-    return run_bake(cli.mesh, cli.cage, cli.output, options);
+    return run_bake(cli.mesh, cli.cage, cli.output, options, memory_limit_bytes(cli.memory_limit_gib));
   }
   if (*cli.cage_cmd) return run_cage(cli.cage_args);
   if (*cli.inspect_cmd) return run_inspect(cli.bundle_path, cli.json);

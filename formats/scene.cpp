@@ -68,7 +68,7 @@ void read_box_corners(const Table& t, Vec3& min, Vec3& max) {
 
 void read_solver(const Table& t, SceneSolverSettings& s) {
   t.allow_only({"dt", "min_dt", "max_substep", "solver", "tolerance", "max_iterations", "preconditioner",
-                "refactor_iterations", "stiffness", "rotation", "exact_when_gaining", "energy_halvings",
+                "refactor_iterations", "stiffness", "rotation", "exact_when_gaining", "exact_gain_share", "energy_halvings",
                 "contact_iterations", "sleep_speed", "sleep_time", "threads", "max_splits_per_step"});
   t.read_number("dt", s.dt, [](double v) { return v > 0 && v <= 1; }, "0 < dt <= 1 [s]");
   t.read_number("min_dt", s.min_dt, [&](double v) { return v >= 0 && v <= s.dt; },
@@ -87,6 +87,8 @@ void read_solver(const Table& t, SceneSolverSettings& s) {
   t.read_choice("rotation", s.rotation, {{"arc", SceneRotation::Arc}, {"line", SceneRotation::Line}});
   t.read_choice("exact_when_gaining", s.exact_when_gaining,
                 {{"never", SceneExact::Never}, {"solve", SceneExact::Solve}, {"contacts", SceneExact::Contacts}});
+  t.read_number("exact_gain_share", s.exact_gain_share, [](double v) { return v >= 0 && v <= 1; },
+                "0 <= exact_gain_share <= 1 (0 = solve every gain again)");
   t.read_integer("energy_halvings", s.energy_halvings, 0, kMaxEnergyHalvings,
                  "an integer in 0 … " + std::to_string(kMaxEnergyHalvings) + " (0 = never)");
   t.read_integer("contact_iterations", s.contact_iterations, 1, kMaxContactIterations,

@@ -140,6 +140,10 @@ struct SceneSolverSettings {
   /// sim::WorldSettings::exact_when_gaining): where the linear solve gained ("solve"),
   /// also where the contact response gained ("contacts"), or none ("never").
   SceneExact exact_when_gaining = SceneExact::Solve;
+  /// A gain smaller than this share of what the run has dissipated so far is left to the
+  /// run's bound instead of an exact re-solve (sim::WorldSettings::exact_gain_share);
+  /// 0 ≤ share ≤ 1, 0 = re-solve every gain.
+  double exact_gain_share = 0.01;
   /// A substep that still ends with more energy than it had after the repairs above is
   /// taken again as two halves, at most this many times in a row
   /// (sim::WorldSettings::energy_halvings); 0 = never. 6: the stability grids keep the

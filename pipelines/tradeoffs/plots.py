@@ -309,7 +309,48 @@ def spin(folder: Path):
     return "spin.png", fig
 
 
-PLOTS = (walls, contacts, cages, triangles, dt, tolerance, spin)
+CAGE_METHOD_STYLE = {"hand-made": ("s-", "k"), "lattice": ("o-", "tab:green"), "wrap": ("^-", "tab:purple")}
+
+
+def cage_method(folder: Path):
+    rows = read(folder, "cage-method.csv")
+    if not rows:
+        return None
+    fig, (replication, ratio, step, making) = figure(
+        4, "Cage method at the hand-made cages' counts (bunny-5k; bunny-drop, fracture off, 1 thread)")
+    hand = {r["tets_asked"]: float(r["instances_per_triangle"])
+            for r in rows if r["method"] == "hand-made" and not r["failed"]}
+    for method, (style, colour) in CAGE_METHOD_STYLE.items():
+        made = sorted((r for r in rows if r["method"] == method and not r["failed"]), key=lambda r: float(r["tets"]))
+        if not made:
+            continue
+        tets = column(made, "tets")
+        replication.semilogx(tets, column(made, "instances_per_triangle"), style, color=colour, label=method)
+        timed = [r for r in made if r["step_ms_mean"]]
+        step.loglog(column(timed, "tets"), column(timed, "step_ms_mean"), style, color=colour, label=method)
+        if method != "hand-made":
+            making.loglog(tets, column(made, "cage_s"), style, color=colour, label=f"--method {method}")
+            paired = [r for r in made if r["tets_asked"] in hand]
+            ratio.semilogx([float(r["tets_asked"]) for r in paired],
+                           [float(r["instances_per_triangle"]) / hand[r["tets_asked"]] for r in paired], style,
+                           color=colour, label=f"--method {method}")
+    failed = [r for r in rows if r["failed"]]
+    for r in failed:  # a count the method cannot reach is a finding: say so where the point would be
+        replication.annotate(f"{r['method']}: none at {r['tets_asked']}", (float(r["tets_asked"]), 1),
+                             xycoords=("data", "axes fraction"), xytext=(2, -6), textcoords="offset points",
+                             fontsize=7, rotation=90, va="top", color=CAGE_METHOD_STYLE[r["method"]][1])
+    replication.set(xlabel="cage tets", ylabel="instances per triangle", title="replication (draw cost)")
+    ratio.axhline(1.2, color=EXACT, linestyle="--", linewidth=1, label="issue 43's bound (1.2×)")
+    ratio.axhline(1.0, color=DEFAULTS, linewidth=1)
+    ratio.set(xlabel="tets asked", ylabel="÷ the hand-made cage's", title="replication against hand-made")
+    step.set(xlabel="cage tets", ylabel="ms per step (mean)", title="physics step")
+    making.set(xlabel="cage tets", ylabel="s", title="making the cage (fissure-bake cage)")
+    for ax in (replication, ratio, step, making):
+        ax.legend()
+    return "cage-method.png", fig
+
+
+PLOTS = (walls, contacts, cages, triangles, dt, tolerance, spin, cage_method)
 
 
 def plot_all(data: Path, out: Path) -> list:

@@ -1,13 +1,15 @@
 """The measurements of the trade-study: each sweep runs Fissure's programs and leaves CSV
 files (and the programs' own Markdown tables) in a folder. Plotting is plots.py's job.
 
-Four sweeps, each named by what it varies:
+Five sweeps, each named by what it varies:
   bake      wall resolution and bake-side sphere radius (tests/bench/fissure_stage2_sweep)
   draw      cage tet count and triangle count against replication, step and draw time
             (tests/bench/fissure_render_bench)
   solver    dt, CG tolerance, exact against warped stiffness (tests/bench/fissure_tradeoff_sweep)
   contacts  sphere radius in the player against the exact every-vertex mode (fissure-bake
             and fissure-player, through their command lines)
+  cage-method  the cage: hand-made (data/cages) against automatic (`fissure-bake cage
+            --method lattice|wrap`) at the same counts: replication and the physics step
 """
 
 import csv
@@ -16,6 +18,7 @@ import re
 import shutil
 import statistics
 import subprocess
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -49,6 +52,7 @@ class Tools:
             "draw": [self.bench("fissure_render_bench")],
             "solver": [self.bench("fissure_tradeoff_sweep")],
             "contacts": [self.bake, self.player],
+            "cage-method": [self.bake, self.player],
         }[sweep]
         missing = [f"{p} is not built" for p in needs if not p.is_file()]
         if sweep == "contacts" and shutil.which("h5dump") is None:
@@ -235,18 +239,98 @@ def run_contacts(tools: Tools, quick: bool, staging: Path) -> None:
         writer.writerows(rows)
 
 
+# --- cage-method: automatic cages against the hand-made ones ---------------------------
+
+@dataclass(frozen=True)
+class CagePlan:
+    counts: tuple        # tets asked: the counts of data/cages/bunny-5k-cage-N, so each has its hand-made twin
+    steps: int           # of bunny-drop, fracture off, as the contacts sweep plays it
+    time_limit_s: float
+
+
+FULL_CAGE_METHODS = CagePlan((51, 100, 987, 10024), 240, 300.0)
+QUICK_CAGE_METHODS = CagePlan((51, 987), 60, 120.0)
+CAGE_METHODS = ("hand-made", "lattice", "wrap")
+CAGE_METHOD_COLUMNS = ["method", "tets_asked", "tets", "instances_per_triangle", "cage_s", "step_ms_mean", "failed"]
+
+
+def make_cage(tools: Tools, method: str, tets: int, work: Path, log: Path) -> tuple:
+    """(cage file, seconds to make it, None) or (None, None, the error's first line): a
+    count the method cannot reach (the wrap at 100 tets on the bunny) is a finding."""
+    if method == "hand-made":
+        return tools.repo / f"data/cages/bunny-5k-cage-{tets}.node", None, None
+    cage = work / f"{method}-{tets}.node"
+    # From the repository, the mesh named relative to it: the error recorded names no machine's path.
+    command = [tools.bake, "-q", "cage", "--mesh", MESH, "--tets", str(tets), "--method", method, "-o", cage]
+    start = time.monotonic()
+    run = subprocess.run([str(c) for c in command], capture_output=True, text=True, cwd=tools.repo)
+    seconds = time.monotonic() - start
+    with open(log, "a") as f:
+        f.write("$ " + " ".join(str(c) for c in command) + "\n" + run.stderr)
+    if run.returncode == 1:
+        errors = [line.removeprefix("error: ") for line in run.stderr.splitlines() if line.startswith("error: ")]
+        return None, None, (errors or ["exit 1"])[0]
+    if run.returncode != 0:
+        raise SweepError(f"fissure-bake cage --method {method} --tets {tets} exited with {run.returncode}")
+    return cage, seconds, None
+
+
+def replication(tools: Tools, cages: list) -> dict:
+    """(tets, instances per triangle) of each cage file (by name), in one `fissure-bake replication`."""
+    rows = json.loads(output_of([tools.bake, "replication", tools.repo / MESH, "--json", "--cages", *cages]))
+    return {r["cage"]: (r["tets"], r["instances"] / sum(r["counts"])) for r in rows}
+
+
+def run_cage_methods(tools: Tools, quick: bool, staging: Path) -> None:
+    plan = QUICK_CAGE_METHODS if quick else FULL_CAGE_METHODS
+    work = staging / "cage-method-work"
+    work.mkdir()
+    log = staging / "cage-method.log"
+    base = (tools.repo / BASE_SCENE).read_text()
+    rows, cages = [], []
+    for tets in plan.counts:
+        for method in CAGE_METHODS:
+            cage, seconds, failed = make_cage(tools, method, tets, work, log)
+            rows.append({"method": method, "tets_asked": tets, "cage_s": "" if seconds is None else f"{seconds:.3f}",
+                         "failed": failed or "", "cage": cage})
+            if cage is not None:
+                cages.append(cage)
+    replicated = replication(tools, cages)
+    for row in rows:
+        cage = row.pop("cage")
+        if cage is None:
+            continue
+        bundle = work / f"{row['method']}-{row['tets_asked']}.h5"
+        run_logged([tools.bake, "-q", "bake", "--mesh", tools.repo / MESH, "--cage", cage, "-o", bundle,
+                    "--skip", "walls"], log.with_suffix(".out"), log)
+        scene = bundle.with_suffix(".toml")
+        scene.write_text(scene_with(base, bundle.name, "spheres"))
+        print(f"    {row['method']} cage, {row['tets_asked']} tets asked ({plan.steps} steps)", flush=True)
+        report = play(tools, scene, bundle.with_suffix(".json"), ContactPlan((), plan.steps, plan.time_limit_s), log)
+        tets, per_triangle = replicated[cage.name]
+        row.update(tets=tets, instances_per_triangle=f"{per_triangle:.4f}",
+                   step_ms_mean="" if report is None else report["timings"]["step"]["mean_ms"])
+    with open(staging / "cage-method.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, CAGE_METHOD_COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 def run_sweep(tools: Tools, sweep: str, quick: bool, staging: Path) -> None:
     if sweep == "contacts":
         run_contacts(tools, quick, staging)
+    elif sweep == "cage-method":
+        run_cage_methods(tools, quick, staging)
     else:
         run_bench(tools, sweep, quick, staging)
 
 
-SWEEPS = ("bake", "draw", "solver", "contacts")
+SWEEPS = ("bake", "draw", "solver", "contacts", "cage-method")
 # The files each sweep leaves; the rest of its staging folder (bundles, scenes) is scratch.
 OUTPUTS = {
     "bake": ("walls.csv", "spheres-bake.csv", "bake.md"),
     "draw": ("draw.csv", "draw.md"),
     "solver": ("dt.csv", "tolerance.csv", "spin.csv", "solver.md"),
     "contacts": ("contacts.csv",),
+    "cage-method": ("cage-method.csv",),
 }

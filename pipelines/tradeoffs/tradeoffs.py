@@ -3,14 +3,15 @@
 files and PNG plots into one folder. docs/tradeoffs.md shows the plots and says what to
 pick.
 
-  python3 pipelines/tradeoffs/tradeoffs.py                 # everything, into docs/tradeoffs/ (~1 min on 2 cores)
+  python3 pipelines/tradeoffs/tradeoffs.py                 # everything, into docs/tradeoffs/ (~2.5 min on 2 cores)
   python3 pipelines/tradeoffs/tradeoffs.py --quick         # CI's reduced sweep, into out/tradeoffs-quick/
   python3 pipelines/tradeoffs/tradeoffs.py --only solver   # one sweep; the other files are kept
   python3 pipelines/tradeoffs/tradeoffs.py --plots-only    # re-plot the CSV files already there
 
 Sweeps: bake (wall resolution, bake-side sphere radius), draw (cage tets and triangles
 against replication, step and draw time), solver (dt, CG tolerance, exact against warped
-stiffness), contacts (sphere radius in the player against the exact every-vertex mode).
+stiffness), contacts (sphere radius in the player against the exact every-vertex mode),
+cage-method (hand-made cages against `fissure-bake cage --method lattice|wrap`).
 
 Needs a release build (scripts/build.sh release), matplotlib (python3-matplotlib) and
 h5dump (hdf5-tools): scripts/install-deps.sh installs both.

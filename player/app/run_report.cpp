@@ -32,6 +32,26 @@ void write_phase(JsonWriter& json, const char* name, const PhaseStats& p, long s
   json.end_object();
 }
 
+void write_slowest_steps(JsonWriter& json, const std::vector<SlowStep>& slowest) {
+  json.key("slowest_steps").begin_array();
+  for (const SlowStep& s : slowest) {
+    json.begin_object();
+    json.key("step").value(static_cast<std::int64_t>(s.step));
+    json.key("ms").value(1e3 * s.total);
+    json.key("solve_ms").value(1e3 * s.solve);
+    json.key("collisions_ms").value(1e3 * s.collisions);
+    json.key("fracture_ms").value(1e3 * s.fracture);
+    json.key("substeps").value(s.substeps);
+    json.key("exact_substeps").value(s.exact_substeps);
+    json.key("energy_halvings").value(s.energy_halvings);
+    json.key("factorizations").value(s.factorizations);
+    json.key("retaken_to_wake").value(s.retaken_to_wake);
+    json.key("splits").value(static_cast<std::uint64_t>(s.splits));
+    json.end_object();
+  }
+  json.end_array();
+}
+
 void write_bodies(JsonWriter& json, const sim::World& world, const RunRecord& run) {
   json.key("bodies").begin_array();
   for (std::size_t b = 0; b < world.bodies().size(); ++b) {
@@ -61,6 +81,7 @@ void write_timings(JsonWriter& json, const RunRecord& run) {
   write_phase(json, "fracture", s.fracture, steps);
   write_phase(json, "collisions", s.collisions, steps);
   write_phase(json, "step", s.step, steps);
+  write_slowest_steps(json, s.slowest);
   if (run.diagnostics != nullptr) json.key("diagnostics_total_s").value(run.diagnostics->seconds);
   json.end_object();
 }

@@ -34,7 +34,27 @@ void RunStatistics::on_start(const sim::World& world) {
   for (const sim::Body& b : world.bodies()) initial_nodes.push_back(b.integrator().node_count());
 }
 
-void RunStatistics::on_step(const sim::World& /*world*/, const sim::StepReport& r, long /*step*/) {
+void RunStatistics::keep_if_slow(const sim::StepReport& r, long index) {
+  if (slowest.size() == kSlowestKept && !(r.total > slowest.back().total)) return;
+  const SlowStep slow{index,
+                      r.total,
+                      r.solve,
+                      r.collisions,
+                      r.fracture,
+                      r.substeps,
+                      r.exact_substeps,
+                      r.energy_halvings,
+                      r.factorizations,
+                      r.retaken_to_wake,
+                      r.splits.size()};
+  const auto at = std::upper_bound(slowest.begin(), slowest.end(), slow,
+                                   [](const SlowStep& a, const SlowStep& b) { return a.total > b.total; });
+  slowest.insert(at, slow);
+  if (slowest.size() > kSlowestKept) slowest.pop_back();
+}
+
+void RunStatistics::on_step(const sim::World& /*world*/, const sim::StepReport& r, long index) {
+  keep_if_slow(r, index);
   step.add(r.total);
   forces.add(r.forces);
   assembly.add(r.assembly);

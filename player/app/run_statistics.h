@@ -28,6 +28,17 @@ struct PhaseStats {
   std::uint64_t count = 0;
 };
 
+/// One of a run's slowest steps and what it did: a real-time budget is broken by its
+/// hitches, and their cause (a refactorization after fracture, an exact re-solve or a
+/// halving of a substep that gained energy, a step taken again to wake a pile) is what
+/// the report must say (issue 42).
+struct SlowStep {
+  long step = 0;  ///< the step's number in the run (1: the first)
+  double total = 0, solve = 0, collisions = 0, fracture = 0;  ///< [s]
+  int substeps = 1, exact_substeps = 0, energy_halvings = 0, factorizations = 0, retaken_to_wake = 0;
+  std::size_t splits = 0;
+};
+
 class RunStatistics : public RunObserver {
  public:
   void on_start(const sim::World& world) override;
@@ -51,6 +62,12 @@ class RunStatistics : public RunObserver {
   /// Fragments asleep after the last step, and steps taken again to wake an island (sim::StepReport).
   std::size_t fragments_asleep = 0, retaken_to_wake = 0;
   std::vector<Index> initial_nodes;  ///< per body
+  /// The kSlowestKept slowest steps, slowest first (ties: the earlier step first).
+  static constexpr std::size_t kSlowestKept = 5;
+  std::vector<SlowStep> slowest;
+
+ private:
+  void keep_if_slow(const sim::StepReport& report, long step);
 };
 
 }  // namespace fissure::player

@@ -228,6 +228,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
   settings.step.refactor_iterations = scene.solver.refactor_iterations;
   settings.rotate_on_arcs = scene.solver.rotation == formats::SceneRotation::Arc;
   settings.exact_when_gaining = exact_resolve(scene.solver.exact_when_gaining);
+  settings.exact_gain_share = scene.solver.exact_gain_share;
   settings.energy_halvings = scene.solver.energy_halvings;
   settings.contact_iterations = scene.solver.contact_iterations;
   settings.sleep = {scene.solver.sleep_speed, scene.solver.sleep_time};

@@ -226,6 +226,29 @@ void ImplicitIntegrator::check_state(const Matrix3Xd& m, const char* what) const
   if (!m.allFinite()) throw Error(std::string(what) + " hold a non-finite value", "pass finite values");
 }
 
+void ImplicitIntegrator::set_system_scales(double h) {
+  // A = M − h D − h² K with D = −αM + βK:  A = (1 + hα) M − (hβ + h²) K.
+  m_system_k_scale = h * m_material.rayleigh_stiffness + h * h;
+  m_system_m_scale = 1.0 + h * m_material.rayleigh_mass;
+}
+
+bool ImplicitIntegrator::prepare(const StepSettings& s) {
+  const bool lagged = s.solver == LinearSolver::ConjugateGradient && s.preconditioner == Preconditioner::LaggedCholesky;
+  if (!lagged) return true;
+  if (m_pattern_dirty) {
+    m_system.build(m_elasticity.tets(), m_pinned);
+    m_factor.reset();
+    m_pattern_dirty = false;
+  }
+  if (m_system.free_count() == 0) return true;
+  evaluate(s, false);
+  set_system_scales(s.dt);
+  m_system.assemble(m_elasticity, m_elements, m_mass, m_system_k_scale, m_system_m_scale);
+  const bool factored = refactor(true);
+  m_system_form = SystemForm::None;
+  return factored;
+}
+
 SolveStatus ImplicitIntegrator::step(const StepSettings& settings) {
   evaluate(settings, false);
   return solve(settings);
@@ -252,9 +275,7 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
     return SolveStatus::Converged;
   }
   const double h = s.dt;
-  // A = M − h D − h² K with D = −αM + βK:  A = (1 + hα) M − (hβ + h²) K.
-  m_system_k_scale = h * m_material.rayleigh_stiffness + h * h;
-  m_system_m_scale = 1.0 + h * m_material.rayleigh_mass;
+  set_system_scales(h);
   const Eigen::VectorXd b = right_hand_side(s);
   // The lagged factor is refreshed when the last solve needed too many iterations, the
   // pattern changed (the factor was reset) or dt changed.

@@ -134,6 +134,14 @@ class ImplicitIntegrator {
   /// Restores a checkpoint taken with the current node count (undo splits first).
   void restore(const Checkpoint& checkpoint);
 
+  /// Does at load what the first solve() with these settings would: builds the system's
+  /// pattern and, for conjugate gradients with the lagged Cholesky factor, factors the
+  /// system at the current positions. The first step then answers exactly as without it
+  /// and no longer pays the analysis and factorization (issue 42: a 92,747-tet beam's
+  /// first step took 5.1 s; a game loads, then must not hitch). False when the factor
+  /// failed (the first solve() will report it).
+  bool prepare(const StepSettings& settings);
+
   /// Advances one step: evaluate() then solve(). On anything but Converged or
   /// MaxIterations the state is left unchanged, so the caller can retry with a smaller dt.
   SolveStatus step(const StepSettings& settings);
@@ -237,6 +245,8 @@ class ImplicitIntegrator {
                                                      const Eigen::VectorXd& v, const Eigen::VectorXd* impulses);
   /// Armijo backtracking from v along dv (decrement −∇Eᵀdv): v, energy and the nodes move
   /// to the first step that lowers E enough. False, and the nodes back at v, when none does.
+  /// The system's scales of K and M for a step of h (A = m_scale M − k_scale K).
+  void set_system_scales(double h);
   bool backtrack(const StepSettings& s, const Checkpoint& start, const Eigen::VectorXd* impulses,
                  const Eigen::VectorXd& dv, double decrement, Eigen::VectorXd& v, double& energy);
   /// Per tet K₀ v at its corners, into m_tet_rhs (β damping's term; zero without β).

@@ -38,8 +38,7 @@ ImplicitIntegrator::ExactSolve ImplicitIntegrator::solve_exactly(const StepSetti
   if (m_material.rayleigh_stiffness != 0.0) m_start_elements = m_elements;
   StepSettings exact = s;
   exact.stiffness = StiffnessModel::Exact;
-  m_system_k_scale = h * m_material.rayleigh_stiffness + h * h;
-  m_system_m_scale = 1.0 + h * m_material.rayleigh_mass;
+  set_system_scales(h);
   Eigen::VectorXd v(m_system.rows());
   for (Index c = 0; c < m_system.free_count(); ++c) {
     const NodeIndex n = m_system.free_node(c);

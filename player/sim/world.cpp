@@ -94,6 +94,10 @@ World::World(std::vector<BodyDescription> bodies, Environment environment, std::
   m_deformation.resize(m_bodies.size());
   m_deformation_step.assign(m_bodies.size(), 0);
   m_start_energy = total_energy();
+  // The first step's factorizations happen here, at load, not in a step.
+  StepSettings first = m_settings.step;
+  first.dt /= planned_substeps();
+  for (Body& b : m_bodies) b.integrator().prepare(first);
 }
 
 Body::Body(std::string name_, std::unique_ptr<ImplicitIntegrator> integrator, FractureTopology topology_,

@@ -79,6 +79,15 @@ struct WorldSettings {
   /// the second still breaks. Paid only in substeps that would otherwise create energy.
   ExactResolve exact_when_gaining = ExactResolve::Solve;
   int exact_iterations = 30;  ///< Newton iterations at most per body and exact substep
+  /// A substep whose gain is at most this share of what the run has dissipated so far
+  /// (the run's bound less the substep's own) is not solved again exactly: the run's
+  /// bound, which the halvings below keep, still holds, and each such substep can spend
+  /// at most this share of what is left. 0: every gain is solved again. The re-solve is
+  /// Newton iterations over the whole body: on the sample in the 10,024-tet cage, seven
+  /// gains of 6 µJ–11 mJ (at most 0.04 % of the run's 30 J dissipated) took 0.4–1.7 s
+  /// each, the run's slowest steps (issue 42;
+  /// docs/decisions/0057-exact-resolve-above-a-share-of-what-was-dissipated.md).
+  double exact_gain_share = 0.01;
   /// A substep that still ends above its energy budget after the repairs above, and
   /// above all the world was given (its energy when built plus what was put in since),
   /// is taken again as two halves from its start, at most this many times in a row (so
@@ -348,6 +357,9 @@ class World {
   /// The most energy the world may hold now: its energy when built plus what was put in
   /// since, and rounding [J].
   [[nodiscard]] double run_energy_limit() const;
+  /// Above this a substep is solved again exactly: its energy budget plus
+  /// WorldSettings::exact_gain_share of what the run has dissipated so far [J].
+  [[nodiscard]] double exact_resolve_limit() const;
   /// The solve gained: every body solved exactly, then projectiles and contacts again.
   void resolve_exactly(const StepSettings& step, StepReport& report);
   /// The contacts gained: every body solved exactly with the contacts' impulses held.

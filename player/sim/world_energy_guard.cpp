@@ -20,6 +20,11 @@ StepStatus World::take_again_as_halves(const SubstepStart& start, double dt, Ste
   return first.ok() ? advance(0.5 * dt, report, depth + 1) : first;
 }
 
+double World::exact_resolve_limit() const {
+  const double substep = substep_energy_limit();
+  return substep + m_settings.exact_gain_share * std::max(0.0, run_energy_limit() - substep);
+}
+
 double World::run_energy_limit() const {
   const double given = m_start_energy + m_energy_put_in;
   return given + 1e-9 * (std::abs(m_start_energy) + std::abs(m_energy_put_in));
@@ -46,7 +51,7 @@ bool World::halves_when_gaining(double dt, int depth) const {
 ///    (docs/decisions/0032-exact-resolve-where-a-substep-gains.md).
 double World::solve_exactly_if_gaining(const StepSettings& step, StepReport& report) {
   const double linear = total_energy();
-  if (linear <= substep_energy_limit()) return linear;
+  if (linear <= exact_resolve_limit()) return linear;
   save_motion(m_linear_end_motion);
   m_linear_end_impulses = m_contact_impulses;
   m_linear_end_put_in = m_energy_put_in;

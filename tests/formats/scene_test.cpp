@@ -211,6 +211,7 @@ TEST(SceneReader, ReadsEveryField) {
 TEST(SceneReader, ReadsTheKeysNoShippedSceneSets) {
   const Scene scene = parse(R"([solver]
 exact_when_gaining = "contacts"
+exact_gain_share = 0.01
 sleep_speed = 0.02
 sleep_time = 0.5
 
@@ -237,6 +238,7 @@ velocity = [0, 10, 0]
 rolling_resistance = 0.3
 )");
   EXPECT_EQ(scene.solver.exact_when_gaining, SceneExact::Contacts);
+  EXPECT_EQ(scene.solver.exact_gain_share, 0.01);
   EXPECT_EQ(scene.solver.sleep_speed, 0.02);
   EXPECT_EQ(scene.solver.sleep_time, 0.5);
   ASSERT_EQ(scene.boxes.size(), 1u);
@@ -463,6 +465,7 @@ TEST(SceneReader, OutOfRangeValuesNameKeyAndLine) {
       {"[solver]\nmin_dt = 0.1\n", "solver.min_dt = 0.1 is out of range", 4},
       {"[solver]\ndt = 0.01\nmin_dt = -0.001\n", "solver.min_dt = -0.001 is out of range", 5},
       {"[solver]\ntolerance = 1\n", "solver.tolerance = 1 is out of range", 4},
+      {"[solver]\nexact_gain_share = 1.5\n", "solver.exact_gain_share = 1.5 is out of range", 4},
       {"[solver]\ntolerance = 0\n", "solver.tolerance = 0 is out of range", 4},
       {"[solver]\nmax_iterations = 0\n", "solver.max_iterations = 0 is out of range", 4},
       {"[solver]\nrefactor_iterations = 0\n", "solver.refactor_iterations = 0 is out of range", 4},

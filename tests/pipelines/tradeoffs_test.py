@@ -104,8 +104,26 @@ def check_solver(out: Path) -> None:
             check(float(r["final_energy_ratio"]) <= 1.0, f"the exact model ends below its start: {r}")
 
 
+def check_cage_method(out: Path) -> None:
+    """Issue 43: the automatic cages' replication is at most 1.2 times the hand-made cage's
+    of the same count; every cage that was made was played."""
+    table = {(r["method"], r["tets_asked"]): r for r in rows(out, "cage-method.csv")}
+    check(sorted(table) == sorted((m, n) for m in ("hand-made", "lattice", "wrap") for n in ("51", "987")),
+          f"the quick sweep has 3 methods at 51 and 987 tets: {sorted(table)}")
+    for (method, asked), r in table.items():
+        if method == "lattice":
+            check(not r["failed"], f"the lattice reaches every count: {r}")
+        if r["failed"]:
+            continue
+        check(abs(int(r["tets"]) / int(asked) - 1) <= 0.15, f"{method} lands within ±15 % of {asked}: {r['tets']}")
+        check(float(r["step_ms_mean"]) > 0, f"the {method} cage of {asked} tets was played: {r}")
+        hand = float(table[("hand-made", asked)]["instances_per_triangle"])
+        check(float(r["instances_per_triangle"]) <= 1.2 * hand,
+              f"{method} at {asked} tets: replication {r['instances_per_triangle']} within 1.2 × {hand}")
+
+
 def check_plots(out: Path) -> None:
-    for name in ("walls", "contacts", "cages", "triangles", "dt", "tolerance", "spin"):
+    for name in ("walls", "contacts", "cages", "triangles", "dt", "tolerance", "spin", "cage-method"):
         png = out / f"{name}.png"
         check(png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000,
               f"{name}.png is a plot")
@@ -156,7 +174,7 @@ def main() -> int:
         if run.returncode != 0:
             print(f"FAIL: tradeoffs.py --quick exited with {run.returncode}\n{run.stderr}", file=sys.stderr)
             return 1
-        for checks in (check_walls, check_spheres, check_draw, check_solver, check_plots):
+        for checks in (check_walls, check_spheres, check_draw, check_solver, check_cage_method, check_plots):
             try:
                 checks(out)
             except (OSError, KeyError, IndexError, ValueError) as e:  # a missing file or column: report, go on

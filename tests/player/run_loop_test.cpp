@@ -136,5 +136,30 @@ TEST(RunStatistics, PhaseQuantilesAreNearestRankToWithinOnePercent) {
   EXPECT_EQ(p.buckets.size(), buckets);
 }
 
+// The report keeps the five slowest steps, slowest first, with what each did: the steps
+// of 1..20 ms fed in a shuffled order leave steps of 20, 19, 18, 17 and 16 ms, and a
+// step no slower than the fifth does not displace it.
+TEST(RunStatistics, KeepsTheFiveSlowestStepsSlowestFirst) {
+  RunStatistics s;
+  const auto world = falling_cube(1.0 / 240.0);
+  for (int i = 0; i < 20; ++i) {
+    sim::StepReport r;
+    const int ms = 1 + (i * 7) % 20;  // 1, 8, 15, 2, … : each of 1..20 once
+    r.total = 1e-3 * ms;
+    r.factorizations = ms;
+    s.on_step(*world, r, i);
+  }
+  ASSERT_EQ(s.slowest.size(), RunStatistics::kSlowestKept);
+  for (std::size_t k = 0; k < s.slowest.size(); ++k) {
+    EXPECT_DOUBLE_EQ(s.slowest[k].total, 1e-3 * (20 - static_cast<int>(k)));
+    EXPECT_EQ(s.slowest[k].factorizations, 20 - static_cast<int>(k));
+    EXPECT_EQ((s.slowest[k].step * 7) % 20 + 1, 20 - static_cast<long>(k));  // its own index
+  }
+  sim::StepReport tie;
+  tie.total = 16e-3;
+  s.on_step(*world, tie, 99);
+  EXPECT_NE(s.slowest.back().step, 99);
+}
+
 }  // namespace
 }  // namespace fissure::player

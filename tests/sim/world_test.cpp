@@ -167,6 +167,24 @@ TEST(World, AStepAboveMaxSubstepIsItsSubstepsTakenOneByOne) {
   testing::expect_error_containing([&] { (void)coarse.make(); }, {"max_substep", "10000"});
 }
 
+// A world factors each body at load, for the substep its first step will take: the first
+// step then factors nothing (issue 42: the first factorization was the first step's hitch).
+TEST(World, FactorsAtLoadSoTheFirstStepFactorsNothing) {
+  for (const int substeps : {1, 3}) {
+    testing::SceneParts parts = testing::breaking_bar();
+    parts.settings.step.solver = LinearSolver::ConjugateGradient;
+    parts.settings.step.preconditioner = Preconditioner::LaggedCholesky;
+    parts.settings.step.dt = substeps / 240.0;
+    parts.settings.max_substep = 1.0 / 240.0;
+    const auto world = parts.make();
+    EXPECT_EQ(world->bodies()[0].integrator().factorizations(), 1);
+    const StepReport first = world->step();
+    ASSERT_TRUE(first.status.ok());
+    EXPECT_EQ(first.substeps, substeps);
+    EXPECT_EQ(first.factorizations, 0) << substeps << " substeps";
+  }
+}
+
 /// The breaking scene's world, and a twin stepped in lockstep; at the first step that
 /// splits nodes, the twin's step fails (a NaN gravity makes the solve non-finite) after
 /// its fracture has run. The failed step must leave the twin exactly as it was: stepped
