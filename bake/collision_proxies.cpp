@@ -67,6 +67,12 @@ void validate(const SphereOptions& o) {
     throw Error("--sphere-radius " + std::to_string(o.radius) + " is not a positive length",
                 "give a radius in the mesh's units, e.g. 0.005, or leave it out for the default");
   }
+  // Below a quarter of a radius the samples would cost more than the surface needs; past
+  // 16 radii they would no longer cover it.
+  if (o.surface_spacing != 0.0 && !(o.surface_spacing >= 0.25 && o.surface_spacing <= 16.0)) {
+    throw Error("--surface-spacing " + std::to_string(o.surface_spacing) + " is out of range",
+                "give 0 (no surface spheres) or 0.25 … 16 sphere radii; 1 is the default");
+  }
 }
 
 double default_sphere_radius(const SurfaceMesh& mesh) {
@@ -371,9 +377,10 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
     c.sphere_radius.push_back(radius[k]);
     has_sphere[s.tet] = 1;
   }
-  if (options.surface) {
+  if (options.surface_spacing > 0.0) {
     SurfaceSphereStats surface_stats;
-    for (const SurfaceSphere& s : surface_spheres(b, winding, distance, c.target_radius, &surface_stats)) {
+    for (const SurfaceSphere& s :
+         surface_spheres(b, winding, distance, c.target_radius, options.surface_spacing, &surface_stats)) {
       c.sphere_tet.push_back(s.tet);
       c.sphere_barycentric.push_back(s.barycentric);
       c.sphere_radius.push_back(s.radius);

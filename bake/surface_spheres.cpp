@@ -93,9 +93,11 @@ SurfaceSphere fit_sphere(const formats::Bundle& b, const WindingNumberTree& wind
 }  // namespace
 
 std::vector<SurfaceSphere> surface_spheres(const formats::Bundle& b, const WindingNumberTree& winding,
-                                           const SurfaceDistance& distance, double radius, SurfaceSphereStats* stats) {
+                                           const SurfaceDistance& distance, double radius, double spacing,
+                                           SurfaceSphereStats* stats) {
   const SurfaceMesh& mesh = b.render;
-  const double cell = radius;  // half the grid spheres' spacing: the surface sags at most 0.3 r between samples
+  // At 1, half the grid spheres' spacing: the surface sags at most 0.3 r between samples.
+  const double cell = spacing * radius;
   const Vec3 origin = mesh.positions.rowwise().minCoeff();
   std::vector<std::vector<Candidate>> per_triangle(mesh.triangle_count());
   tbb::parallel_for(std::size_t{0}, mesh.triangle_count(), [&](std::size_t t) {

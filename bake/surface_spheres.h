@@ -45,10 +45,11 @@ struct SurfaceSphereStats {
   std::size_t dropped = 0;  ///< samples that fit no sphere (slivers thinner than r / 2^kSurfaceShrinks)
 };
 
-/// The surface spheres of a bundle with its embedding: radius at most `radius`, in a
-/// fixed order (by sample cell), whatever the thread count.
+/// The surface spheres of a bundle with its embedding: radius at most `radius`, one per
+/// sample cell of `spacing` radii, in a fixed order (by sample cell), whatever the
+/// thread count.
 std::vector<SurfaceSphere> surface_spheres(const formats::Bundle& bundle, const WindingNumberTree& winding,
-                                           const SurfaceDistance& distance, double radius,
+                                           const SurfaceDistance& distance, double radius, double spacing,
                                            SurfaceSphereStats* stats = nullptr);
 
 }  // namespace fissure::bake

@@ -117,10 +117,27 @@ TEST(CollisionSpheres, AFinerCageDoesNotMultiplyTheSpheres) {
   EXPECT_LT(ratio, 1.1);
 }
 
+// --surface-spacing: surface samples one per cell of that many radii, so twice the
+// spacing gives about a quarter of the surface spheres; 0 gives none.
+TEST(CollisionSpheres, SurfaceSpacingSetsHowManySurfaceSpheres) {
+  const SurfaceMesh sphere = testing::icosphere(3, 1.0);
+  const TetMesh cage = testing::grid_cage(Vec3::Constant(-1.3), Vec3::Constant(1.3), 3, 3, 3);
+  const auto count = [&](double spacing) {
+    return bake_collision_only(sphere, cage, SphereOptions{.surface_spacing = spacing}).collision->sphere_tet.size();
+  };
+  const double none = static_cast<double>(count(0.0));
+  const double fine = static_cast<double>(count(1.0)) - none, coarse = static_cast<double>(count(2.0)) - none;
+  EXPECT_GT(fine, 100.0);
+  EXPECT_GT(coarse / fine, 0.2);
+  EXPECT_LT(coarse / fine, 0.35);
+  EXPECT_THROW(validate(SphereOptions{.surface_spacing = 0.1}), Error);
+  EXPECT_THROW(validate(SphereOptions{.surface_spacing = 17.0}), Error);
+}
+
 TEST(CollisionSpheres, CullingRemovesExactlyTheFullySurroundedSpheres) {
   const SurfaceMesh box = testing::box_surface(Vec3::Constant(-0.8), Vec3::Constant(0.8), 4);
   const TetMesh cage = testing::grid_cage(Vec3::Constant(-1), Vec3::Constant(1), 2, 2, 2);
-  SphereOptions all{.radius = 0.05, .cull_surrounded = false, .surface = false};
+  SphereOptions all{.radius = 0.05, .cull_surrounded = false, .surface_spacing = 0.0};
   SphereOptions culled = all;
   culled.cull_surrounded = true;
   const formats::Bundle full = bake_collision_only(box, cage, all);

@@ -115,19 +115,26 @@ TEST(ExactSolve, AStiffBarTurningFastGainsNoEnergy) {
   }
 }
 
+/// The spinning bar as a one-body scene at dt = 0.05 s with the arcs off, so nothing but
+/// an exact re-solve takes its line strain away.
+testing::SceneParts spinning_bar_scene(const Material& material) {
+  SpinningBar bar(material, 10.0);
+  testing::SceneParts scene;
+  scene.bodies.push_back(testing::describe("bar", bar.cage, material));
+  scene.bodies[0].positions = bar.body->positions();
+  scene.bodies[0].velocity = bar.body->velocities();
+  scene.settings.step.dt = 0.05;
+  scene.settings.rotate_on_arcs = false;
+  return scene;
+}
+
 // The world solves a substep again exactly where its linear solve gains. With the arcs
 // off, nothing else takes the spinning bar's line strain away, so the linear steps gain
 // without bound and the exact ones keep the start's energy.
 TEST(ExactSolve, TheWorldSolvesAgainWhereTheLinearSolveGains) {
   const Material material{.density = 7800, .youngs_modulus = 1e11, .poisson_ratio = 0.3};
   for (const bool exactly : {false, true}) {
-    SpinningBar bar(material, 10.0);
-    testing::SceneParts scene;
-    scene.bodies.push_back(testing::describe("bar", bar.cage, material));
-    scene.bodies[0].positions = bar.body->positions();
-    scene.bodies[0].velocity = bar.body->velocities();
-    scene.settings.step.dt = 0.05;
-    scene.settings.rotate_on_arcs = false;
+    testing::SceneParts scene = spinning_bar_scene(material);
     scene.settings.exact_when_gaining = exactly ? ExactResolve::Solve : ExactResolve::Never;
     scene.settings.energy_halvings = 0;  // what the exact re-solve does alone
     const auto world = scene.make();
@@ -161,13 +168,7 @@ TEST(ExactSolve, AGainWithinTheShareOfWhatTheRunDissipatedIsNotSolvedAgain) {
   const auto run = [](double damping, double share, int halvings) {
     const Material material{
         .density = 7800, .youngs_modulus = 1e11, .poisson_ratio = 0.3, .rayleigh_mass = damping};
-    SpinningBar bar(material, 10.0);
-    testing::SceneParts scene;
-    scene.bodies.push_back(testing::describe("bar", bar.cage, material));
-    scene.bodies[0].positions = bar.body->positions();
-    scene.bodies[0].velocity = bar.body->velocities();
-    scene.settings.step.dt = 0.05;
-    scene.settings.rotate_on_arcs = false;
+    testing::SceneParts scene = spinning_bar_scene(material);
     scene.settings.exact_gain_share = share;
     scene.settings.energy_halvings = halvings;
     const auto world = scene.make();
