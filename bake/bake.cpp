@@ -299,7 +299,7 @@ std::string BakeOptions::to_json() const {
   if (collision) {
     j.key("sphere_radius").value(spheres.radius);
     j.key("sphere_version").value(static_cast<std::int64_t>(kSphereVersion));
-    if (spheres.surface_spacing != 1.0) j.key("surface_spacing").value(spheres.surface_spacing);
+    j.key("surface_spacing").value(spheres.surface_spacing);
   }
   if (cage.enabled()) {
     j.key("cage_method").value(cage.method);

@@ -157,6 +157,14 @@ void check_grid_work(const TetMesh& cage, const SphereOptions& options, double r
   // Grid indices are 32-bit, and a lattice this fine would take forever to scan.
   const double extent = (cage.rest_positions.rowwise().maxCoeff() - origin).maxCoeff();
   const double cells = extent / spacing0;
+  // A sphere wider than the whole cage holds nothing up; near the largest double its
+  // grid's spacing overflows to infinity (--sphere-radius 1e308 crashed in the surface
+  // distance query, fuzz-cli).
+  if (!std::isfinite(spacing0) || (options.radius > 0.0 && radius > extent)) {
+    throw Error("--sphere-radius " + short_number(radius) + " is larger than the cage, " + short_number(extent) +
+                    " across",
+                "use a radius of a few hundredths of the mesh's size, or leave it out for the default");
+  }
   if (!(cells <= 1 << 20)) {
     throw Error("--sphere-radius " + short_number(radius) + " is too small for a cage " + short_number(extent) +
                     " across (" + short_number(cells) + " grid cells per axis)",

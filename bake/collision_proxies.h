@@ -54,10 +54,12 @@ struct SphereOptions {
   double radius = 0.0;        ///< target radius [m] (`--sphere-radius`); 0: default_sphere_radius of the mesh
   bool cull_surrounded = true;  ///< drop spheres whose 26 grid neighbours are all present
   /// Surface spheres (surface_spheres.h) one per cell of this many radii
-  /// (`--surface-spacing`); 0: none. The trade, on the sample's 12 variants: 2 takes the
-  /// collision phase to 0.67× and a pile's contacts to a fifth, and lets the deepest
-  /// render vertex sink 14 mm against 9.5 (docs/decisions/0070).
-  double surface_spacing = 1.0;
+  /// (`--surface-spacing`); 0: none. The trade, on the sample's 12 variants: 2 against 1
+  /// takes the collision phase to 0.67× and a pile's contacts to a fifth, and lets the
+  /// deepest render vertex sink 14 mm against 9.5; at 1 a body carries 2.6× the spheres,
+  /// and 64 bodies piled in one place took 19.6 s for 40 steps against 4.6 s at 2
+  /// (docs/decisions/0070).
+  double surface_spacing = 2.0;
   /// The most grid points the radius may imply (estimated_grid_points) before the stage
   /// is refused; 0: no limit (`--no-work-limit`).
   std::uint64_t max_grid_points = kDefaultMaxGridPoints;

@@ -69,7 +69,7 @@ struct BakeFlags {
   int wall_res = static_cast<int>(bake::WallOptions{}.resolution);
   double wall_budget_mib = static_cast<double>(bake::WallOptions{}.memory_budget_bytes >> 20);
   std::optional<double> sphere_radius;
-  double surface_spacing = 1.0;
+  double surface_spacing = 2.0;
   double winding_accuracy = bake::BakeOptions{}.winding_accuracy;
   std::string tets;  ///< as typed, parsed by bake::parse_tet_count
   std::string method = bake::AutoCageOptions{}.method;
@@ -89,8 +89,8 @@ struct BakeFlags {
         command->add_option("--sphere-radius", sphere_radius,
                             "Target collision-sphere radius in mesh units (default: 4.5 % of the cube root of the mesh's volume)"),
         command->add_option("--surface-spacing", surface_spacing,
-                            "Surface collision spheres, one per this many sphere radii of the surface (0: none); 2 makes "
-                            "collisions about a third cheaper and lets render vertices sink deeper (BENCHMARKS.md)")
+                            "Surface collision spheres, one per this many sphere radii of the surface (0: none); 1 lets "
+                            "render vertices sink about half as deep at 1.5x the collision work (BENCHMARKS.md)")
             ->capture_default_str(),
         command->add_option("--winding-accuracy", winding_accuracy,
                             "Fast winding-number accuracy beta (larger = more exact, slower)")

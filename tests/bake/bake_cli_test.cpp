@@ -445,6 +445,7 @@ TEST(BakeCli, BadStageOptionsAreClearErrors) {
            {"--wall-res -8", "--wall-res"},
            {"--sphere-radius 0", "--sphere-radius"},
            {"--sphere-radius -0.01", "--sphere-radius"},
+           {"--sphere-radius 1e308", "is larger than the cage"},
            {"--surface-spacing 0.1", "--surface-spacing"},
            {"--surface-spacing 100", "--surface-spacing"},
            {"--wall-res 4096 --wall-memory-budget 1", "over the budget"},

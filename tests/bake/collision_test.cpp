@@ -69,19 +69,24 @@ TEST(CollisionSpheres, SurfaceSpheresCoverEveryRenderVertex) {
   const SurfaceMesh sphere = testing::icosphere(3, 1.0);
   const TetMesh cage = testing::grid_cage(Vec3::Constant(-1.3), Vec3::Constant(1.3), 4, 4, 4);
   const double r = 0.08;
-  const formats::Bundle b = bake_collision_only(sphere, cage, SphereOptions{.radius = r});
-  double worst = 0.0;
-  for (Index v = 0; v < sphere.vertex_count(); ++v) {
-    const Vec3 p = sphere.positions.col(v);
-    double gap = std::numeric_limits<double>::infinity();
-    for (std::size_t s = 0; s < b.collision->sphere_tet.size(); ++s) {
-      gap = std::min(gap, (sphere_centre(b, s) - p).norm() - b.collision->sphere_radius[s]);
+  const auto worst_gap = [&](double spacing) {
+    const formats::Bundle b = bake_collision_only(sphere, cage, SphereOptions{.radius = r, .surface_spacing = spacing});
+    double worst = 0.0;
+    for (Index v = 0; v < sphere.vertex_count(); ++v) {
+      const Vec3 p = sphere.positions.col(v);
+      double gap = std::numeric_limits<double>::infinity();
+      for (std::size_t s = 0; s < b.collision->sphere_tet.size(); ++s) {
+        gap = std::min(gap, (sphere_centre(b, s) - p).norm() - b.collision->sphere_radius[s]);
+      }
+      worst = std::max(worst, gap);
     }
-    worst = std::max(worst, gap);
-  }
+    return worst;
+  };
   // Samples about r apart, each sphere touching the surface: the surface sags at most
-  // about 0.3 r between them (a grid alone left up to a cell, 2 r).
-  EXPECT_LT(worst, 0.35 * r);
+  // about 0.3 r between them (a grid alone left up to a cell, 2 r). At the default
+  // spacing of 2 r, samples up to about 2 r apart: at most about 0.7 r.
+  EXPECT_LT(worst_gap(1.0), 0.35 * r);
+  EXPECT_LT(worst_gap(2.0), 0.75 * r);
 }
 
 TEST(CollisionSpheres, SurfaceSpheresShrinkToFitAThinPartAndNeverPokeOut) {
