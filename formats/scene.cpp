@@ -42,6 +42,7 @@ constexpr double kMaxYoungsModulus = 1e13;   // [Pa], ten times diamond
 // of one is already far past a usable run.
 constexpr int kMaxEnergyHalvings = 20;
 constexpr int kMaxContactIterations = 64;  // 8 is the default; a pile's shortfall hardly moves after that
+constexpr int kMaxContactSweeps = 1024;    // 16 is the default; each sweep is a pass over the contacts
 const std::string kSpeedRange = "a speed of at most 1e4 m/s";
 const std::string kPositionRange = "at most 1e6 m from the origin";
 
@@ -69,7 +70,7 @@ void read_box_corners(const Table& t, Vec3& min, Vec3& max) {
 void read_solver(const Table& t, SceneSolverSettings& s) {
   t.allow_only({"dt", "min_dt", "max_substep", "solver", "tolerance", "max_iterations", "preconditioner",
                 "refactor_iterations", "stiffness", "rotation", "exact_when_gaining", "exact_gain_share", "energy_halvings",
-                "contact_iterations", "sleep_speed", "sleep_time", "threads", "max_splits_per_step"});
+                "contact_iterations", "contact_sweeps", "sleep_speed", "sleep_time", "threads", "max_splits_per_step"});
   t.read_number("dt", s.dt, [](double v) { return v > 0 && v <= 1; }, "0 < dt <= 1 [s]");
   t.read_number("min_dt", s.min_dt, [&](double v) { return v >= 0 && v <= s.dt; },
                 "0 <= min_dt <= dt (= " + format_number(s.dt) + ") [s]; 0 means a fixed step");
@@ -93,6 +94,8 @@ void read_solver(const Table& t, SceneSolverSettings& s) {
                  "an integer in 0 … " + std::to_string(kMaxEnergyHalvings) + " (0 = never)");
   t.read_integer("contact_iterations", s.contact_iterations, 1, kMaxContactIterations,
                  "an integer in 1 … " + std::to_string(kMaxContactIterations));
+  t.read_integer("contact_sweeps", s.contact_sweeps, 0, kMaxContactSweeps,
+                 "an integer in 0 … " + std::to_string(kMaxContactSweeps) + " (0 = always the augmented Lagrangian)");
   t.read_number("sleep_speed", s.sleep_speed, [](double v) { return v >= 0 && v <= 1; },
                 "0 <= sleep_speed <= 1 [m/s]; 0 means nothing sleeps");
   t.read_number("sleep_time", s.sleep_time, [](double v) { return v > 0 && v <= 1e6; }, "0 < sleep_time [s]");

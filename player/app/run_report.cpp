@@ -131,6 +131,7 @@ void write_summary(JsonWriter& json, const sim::World& world, const RunRecord& r
   json.key("contacts").value(static_cast<std::uint64_t>(s.contacts));
   json.key("contacts_swept_only").value(static_cast<std::uint64_t>(s.swept));
   json.key("contact_response_iterations").value(static_cast<std::uint64_t>(s.response_iterations));
+  json.key("contact_response_sweeps").value(static_cast<std::uint64_t>(s.response_sweeps));
   json.key("restitution_limited_steps").value(static_cast<std::uint64_t>(s.restitution_limited));
   json.key("restitution_kept_min").value(s.restitution_kept_min);
   json.key("exact_substeps").value(static_cast<std::uint64_t>(s.exact_substeps));
@@ -190,6 +191,9 @@ void print_summary(const sim::World& world, const RunRecord& run) {
   }
   std::printf("\nresponse  %.1f conjugate-gradient iterations/step inside the implicit step",
               per_step(static_cast<double>(s.response_iterations), steps));
+  if (s.response_sweeps > 0) {
+    std::printf(", %.1f sequential-impulse sweeps/step", per_step(static_cast<double>(s.response_sweeps), steps));
+  }
   if (s.restitution_limited > 0) {
     std::printf("; restitution cut in %zu steps to keep the energy (down to %.2g of it)", s.restitution_limited,
                 s.restitution_kept_min);

@@ -66,6 +66,7 @@ void RunStatistics::on_step(const sim::World& /*world*/, const sim::StepReport& 
   contacts += r.contacts.contacts;
   swept += r.contacts.swept;
   response_iterations += r.contacts.response_iterations;
+  response_sweeps += r.contacts.response_sweeps;
   unconverged += r.unconverged ? 1 : 0;
   iterations += r.solver_iterations;
   factorizations += r.factorizations;

@@ -233,6 +233,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
   settings.exact_gain_share = scene.solver.exact_gain_share;
   settings.energy_halvings = scene.solver.energy_halvings;
   settings.contact_iterations = scene.solver.contact_iterations;
+  settings.contact_sweeps = scene.solver.contact_sweeps;
   settings.sleep = {scene.solver.sleep_speed, scene.solver.sleep_time};
   settings.min_dt = scene.solver.min_dt;
   settings.max_substep = scene.solver.max_substep;

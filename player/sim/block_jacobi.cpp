@@ -184,4 +184,27 @@ void BlockJacobi::solve(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
   solve_set(m_dynamic, r, z);
 }
 
+Index BlockJacobi::group_of(Eigen::Index row) const {
+  const Slot& slot = m_slot[row / 3];
+  if (slot.group == kNone) return kNone;
+  return slot.fixed ? slot.group : static_cast<Index>(m_fixed.rows.size()) + slot.group;
+}
+
+const std::vector<Eigen::Index>& BlockJacobi::group_rows(Index group) const {
+  const auto fixed_groups = static_cast<Index>(m_fixed.rows.size());
+  return group < fixed_groups ? m_fixed.rows[group] : m_dynamic.rows[group - fixed_groups];
+}
+
+void BlockJacobi::solve_group(Index group, Eigen::Ref<const Eigen::MatrixXd> r, Eigen::Ref<Eigen::MatrixXd> z) const {
+  const auto fixed_groups = static_cast<Index>(m_fixed.rows.size());
+  if (group < fixed_groups) {
+    // The padding is the identity and decoupled, so the inverse's corner is the block's.
+    // A lazy product: at 12 × 3 the blocked kernel's set-up costs more than the flops.
+    const Eigen::Index n = r.rows();
+    z.noalias() = m_fixed.inverse[group].topLeftCorner(n, n).lazyProduct(r);
+  } else {
+    z = m_dynamic.factors[group - fixed_groups].solve(r);
+  }
+}
+
 }  // namespace fissure::sim

@@ -51,6 +51,19 @@ class BlockJacobi {
   /// z = block⁻¹ r on the covered rows; the other rows of z are left as they are.
   void solve(const Eigen::VectorXd& r, Eigen::VectorXd& z) const;
 
+  /// The groups one at a time, numbered 0 … group_count() − 1 (the order is this
+  /// class's, not set_groups()'s), for a caller that works on one group's rows alone:
+  /// the sequential-impulse response (sequential_impulses.h).
+  [[nodiscard]] Index group_count() const { return static_cast<Index>(m_fixed.rows.size() + m_dynamic.rows.size()); }
+  /// The group that covers `row`, or kInvalidIndex.
+  [[nodiscard]] Index group_of(Eigen::Index row) const;
+  /// `row`'s node's place in its group: its rows are [3 place, 3 place + 3) of the group's.
+  [[nodiscard]] Index place_in_group(Eigen::Index row) const { return m_slot[row / 3].local; }
+  /// The first rows of the group's nodes, in its order.
+  [[nodiscard]] const std::vector<Eigen::Index>& group_rows(Index group) const;
+  /// z = block⁻¹ r for one group, on its 3 × nodes rows (any number of columns).
+  void solve_group(Index group, Eigen::Ref<const Eigen::MatrixXd> r, Eigen::Ref<Eigen::MatrixXd> z) const;
+
  private:
   static constexpr Index kNone = kInvalidIndex;
   /// Groups of at most 4 nodes (a one-tet fragment, a projectile) are kept in fixed

@@ -330,6 +330,7 @@ void World::collide(double dt, StepReport& report) {
   cs.iterations = m_settings.contact_iterations;
   cs.sparse_blocks_after = m_settings.contact_sparse_blocks_after;
   cs.sparse_blocks_from_start = in_pile();
+  cs.sequential_impulse_sweeps = m_settings.contact_sweeps;
   cs.impulses = &m_contact_impulses;
   // With the last substep's impulses, before the contacts are found (collision.h).
   resist_rolling(collision_bodies, m_environment, m_contact_impulses);
@@ -360,6 +361,7 @@ void World::collide(double dt, StepReport& report) {
   report.contacts.swept += counts.swept;
   report.contacts.pairs_tested += counts.pairs_tested;
   report.contacts.response_iterations += counts.response_iterations;
+  report.contacts.response_sweeps += counts.response_sweeps;
   report.contacts.responses += counts.responses;
   report.contacts.restituting += counts.restituting;
   if (restitutes) {

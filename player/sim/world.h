@@ -60,6 +60,11 @@ struct WorldSettings {
   /// this many more substeps make the response's sparse blocks before its first solve
   /// (ContactResponseSettings::sparse_blocks_from_start); 0: never, for comparison.
   int contact_sparse_block_memory = 16;
+  /// A contact response among small fragments and projectiles only (a shattered body's
+  /// debris) is answered by sequential impulses, at most this many sweeps
+  /// (ContactResponseSettings::sequential_impulse_sweeps); 0: always the augmented
+  /// Lagrangian, for comparison.
+  int contact_sweeps = 16;
   /// Each fragment's rigid rotation within a step moves on an arc, not a line
   /// (rigid_rotation.h); off: plain backward Euler, for comparison.
   bool rotate_on_arcs = true;

@@ -150,6 +150,7 @@ void World::keep_restitution_within(StepContacts& contacts, double budget, StepR
   restore_motion(m_free_motion);
   const ContactCounts inelastic_counts = contacts.respond(0.0);
   report.contacts.response_iterations += inelastic_counts.response_iterations;
+  report.contacts.response_sweeps += inelastic_counts.response_sweeps;
   report.contacts.responses += inelastic_counts.responses;
   const double inelastic = total_energy();
   double kept = 0.0;
@@ -173,6 +174,7 @@ void World::add_restitution_within(StepContacts& contacts, double budget, StepRe
   restore_motion(m_free_motion);
   const ContactCounts bounced_counts = contacts.respond(1.0);
   report.contacts.response_iterations += bounced_counts.response_iterations;
+  report.contacts.response_sweeps += bounced_counts.response_sweeps;
   report.contacts.responses += bounced_counts.responses;
   const double bounced = total_energy();
   if (bounced <= budget) return;

@@ -37,6 +37,7 @@ refactor_iterations = 3
 stiffness = "exact"
 rotation = "line"
 contact_iterations = 3
+contact_sweeps = 5
 threads = 3
 max_splits_per_step = 7
 
@@ -130,6 +131,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(scene.solver.stiffness, SceneStiffness::Exact);
   EXPECT_EQ(scene.solver.rotation, SceneRotation::Line);
   EXPECT_EQ(scene.solver.contact_iterations, 3);
+  EXPECT_EQ(scene.solver.contact_sweeps, 5);
   EXPECT_EQ(scene.solver.threads, 3);
   EXPECT_EQ(scene.solver.max_splits_per_step, 7);
 
@@ -186,12 +188,12 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(bunny.pin_boxes[0].min, Vec3(-1, -1, 0));
   EXPECT_EQ(bunny.pin_boxes[0].max, Vec3(1, 1, 0.1));
   EXPECT_EQ(bunny.pin_nodes, (std::vector<Index>{3, 1, 4, 15}));
-  EXPECT_EQ(bunny.line, 49);
+  EXPECT_EQ(bunny.line, 50);
 
   const SceneObject& cube = scene.objects[1];
   EXPECT_EQ(cube.name, "cube");  // the bundle's stem when no name is given
   EXPECT_EQ(cube.bundle, std::filesystem::path("scenes/other/cube.h5"));
-  EXPECT_EQ(cube.line, 78);
+  EXPECT_EQ(cube.line, 79);
 
   ASSERT_EQ(scene.projectiles.size(), 1u);
   const SceneProjectile& p = scene.projectiles[0];
@@ -202,7 +204,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(p.launch_time, 1.5);
   EXPECT_EQ(p.restitution, 0.8);
   EXPECT_EQ(p.friction, 0.1);
-  EXPECT_EQ(p.line, 81);
+  EXPECT_EQ(p.line, 82);
 }
 
 // The keys that no shipped scene sets (issue 47: every key is set by a shipped or a test
@@ -265,6 +267,7 @@ TEST(SceneReader, DefaultsApply) {
   EXPECT_EQ(scene.solver.preconditioner, ScenePreconditioner::Cholesky);
   EXPECT_EQ(scene.solver.stiffness, SceneStiffness::Warped);
   EXPECT_EQ(scene.solver.contact_iterations, 8);
+  EXPECT_EQ(scene.solver.contact_sweeps, 16);
   EXPECT_EQ(scene.solver.threads, 0);
   EXPECT_EQ(scene.solver.max_splits_per_step, 64);
   EXPECT_FALSE(scene.features.fracture);
@@ -473,6 +476,8 @@ TEST(SceneReader, OutOfRangeValuesNameKeyAndLine) {
       {"[solver]\nthreads = -1\n", "solver.threads = -1 is out of range", 4},
       {"[solver]\ncontact_iterations = 0\n", "solver.contact_iterations = 0 is out of range", 4},
       {"[solver]\ncontact_iterations = 65\n", "solver.contact_iterations = 65 is out of range", 4},
+      {"[solver]\ncontact_sweeps = -1\n", "solver.contact_sweeps = -1 is out of range", 4},
+      {"[solver]\ncontact_sweeps = 1025\n", "solver.contact_sweeps = 1025 is out of range", 4},
       {"[solver]\nmax_splits_per_step = -2\n", "solver.max_splits_per_step = -2 is out of range", 4},
       {"[object.material]\ndensity = 0\n", "object[0].material.density = 0 is out of range", 4},
       {"[object.material]\nyoungs_modulus = -1e6\n", "object[0].material.youngs_modulus = -1e+06 is out of range", 4},

@@ -50,12 +50,14 @@ struct Pile {
   double deepest = 0.0;             ///< the deepest sphere penetration of any step [m]
   double smallest_radius = 0.0;     ///< [m]
   std::size_t cg_iterations = 0, contacts = 0, most_contacts = 0;  ///< most: in one step
+  std::size_t sweeps = 0;           ///< sequential-impulse sweeps
 };
 
 /// A grid of `cubes` × `cubes` × 3 cubes of 0.1 m that shatters into single tets at
 /// toughness 0 as it lands at 2 m/s, its fragments piling on the ground and on each
-/// other, after `steps` steps on at most `threads` threads (0: TBB's default).
-Pile run_pile(int cubes, int steps, int threads) {
+/// other, after `steps` steps on at most `threads` threads (0: TBB's default), its debris
+/// answered by sequential impulses of at most `sweeps` (WorldSettings::contact_sweeps).
+Pile run_pile(int cubes, int steps, int threads, int sweeps = WorldSettings{}.contact_sweeps) {
   std::optional<tbb::global_control> limit;
   if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   const double side = 0.1 * cubes;
@@ -70,6 +72,7 @@ Pile run_pile(int cubes, int steps, int threads) {
   WorldSettings settings;
   settings.fracture = true;
   settings.self_collision = true;
+  settings.contact_sweeps = sweeps;
   World world({body}, environment, {}, settings);
   Pile pile;
   for (int i = 0; i < steps; ++i) {
@@ -77,6 +80,7 @@ Pile run_pile(int cubes, int steps, int threads) {
     EXPECT_TRUE(report.status.ok()) << "step " << i;
     pile.deepest = std::max(pile.deepest, world.sphere_penetration());
     pile.cg_iterations += report.contacts.response_iterations;
+    pile.sweeps += report.contacts.response_sweeps;
     pile.contacts += report.contacts.contacts;
     pile.most_contacts = std::max(pile.most_contacts, report.contacts.contacts);
   }
@@ -94,9 +98,10 @@ Pile run_pile(int cubes, int steps, int threads) {
 // (issue 16): a solve with a contact active overshot, the next left it inactive, and
 // responses ended on the missing half, so pieces sank with a contact every step (13 cm,
 // six sphere radii, in 120 steps). With the line search, no sphere sinks by more than
-// half the smallest radius.
+// half the smallest radius. The augmented Lagrangian answers every response here
+// (contact_sweeps 0); the test below has the default.
 TEST(ContactResponse, APileOfFragmentsStaysOnTheGround) {
-  const Pile pile = run_pile(4, 120, 0);
+  const Pile pile = run_pile(4, 120, 0, 0);
   std::printf("%u fragments; deepest sphere penetration %.3g m, smallest radius %.3g m; %zu contacts and %zu "
               "response CG iterations in 120 steps\n",
               static_cast<unsigned>(pile.fragments), pile.deepest, pile.smallest_radius, pile.contacts,
@@ -107,6 +112,23 @@ TEST(ContactResponse, APileOfFragmentsStaysOnTheGround) {
   // dense block, its contacts included (block_jacobi.h). Measured 6,392 (CHOLMOD) and
   // 6,232 (portable); with the bodies' own preconditioners alone, 11,122.
   EXPECT_LT(pile.cg_iterations, 8000u);
+}
+
+// The same pile with its debris answered by sequential impulses (the default,
+// sequential_impulses.h): as deep at most as the augmented Lagrangian's bound, and the
+// debris' responses take no conjugate-gradient iterations (only the first steps', while
+// the cubes are still large fragments, and any the sweeps hand over).
+TEST(ContactResponse, DebrisAnsweredBySequentialImpulsesStaysOnTheGroundWithoutTheSolves) {
+  const Pile impulses = run_pile(4, 120, 0);
+  const Pile lagrangian = run_pile(4, 120, 0, 0);
+  std::printf("%u fragments; deepest sphere %.3g m (augmented Lagrangian %.3g m); %zu sweeps and %zu CG iterations "
+              "(augmented Lagrangian %zu)\n",
+              static_cast<unsigned>(impulses.fragments), impulses.deepest, lagrangian.deepest, impulses.sweeps,
+              impulses.cg_iterations, lagrangian.cg_iterations);
+  EXPECT_GT(impulses.fragments, impulses.tets / 2);
+  EXPECT_LT(impulses.deepest, 0.5 * impulses.smallest_radius);
+  EXPECT_GT(impulses.sweeps, 0u);
+  EXPECT_LT(impulses.cg_iterations, lagrangian.cg_iterations / 2);
 }
 
 // With more contacts than one chunk, the response's passes and its blocks' assembly run

@@ -389,10 +389,12 @@ ContactCounts StepContacts::respond(double restitution_share, int iterations) {
   response.iterations = iterations > 0 ? iterations : m_settings.iterations;
   response.sparse_blocks_after = m_settings.sparse_blocks_after;
   response.sparse_blocks_from_start = m_settings.sparse_blocks_from_start;
+  response.sequential_impulse_sweeps = m_settings.sequential_impulse_sweeps;
   response.reference_speed = m_settings.gravity.norm() * h;
   const ContactResponseReport outcome = respond_to_contacts(m_bodies, m_projectiles, m_constraints, response);
   ContactCounts counts = m_counts;
   counts.response_iterations = outcome.cg_iterations;
+  counts.response_sweeps = outcome.sweeps;
   counts.responses = 1;
   counts.ran_long = outcome.ran_long;
   // Answering again (World::keep_restitution_within) meets the same pile.

@@ -47,6 +47,7 @@ struct CollisionSettings {
   int iterations = 8;                ///< augmented-Lagrangian iterations of the response, at most
   int sparse_blocks_after = 40;      ///< ContactResponseSettings::sparse_blocks_after
   bool sparse_blocks_from_start = false;  ///< ContactResponseSettings::sparse_blocks_from_start
+  int sequential_impulse_sweeps = 16;     ///< ContactResponseSettings::sequential_impulse_sweeps
   ContactImpulses* impulses = nullptr;  ///< in: last step's impulses (warm start); out: this step's
 };
 
@@ -58,6 +59,7 @@ struct ContactCounts {
   std::size_t swept = 0;         ///< contacts whose end states do not overlap: only the swept test caught them
   std::size_t pairs_tested = 0;  ///< narrow-phase point pairs of the self-collision broad phase
   std::size_t response_iterations = 0;  ///< conjugate-gradient iterations of the contact response
+  std::size_t response_sweeps = 0;      ///< its sequential-impulse sweeps (sequential_impulses.h)
   std::size_t responses = 0;     ///< contact responses solved (World answers a substep twice to limit restitution)
   std::size_t restituting = 0;   ///< contacts whose target restitution raised (impacts above the resting speed)
   bool ran_long = false;         ///< the response's ContactResponseReport::ran_long

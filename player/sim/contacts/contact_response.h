@@ -96,6 +96,18 @@ struct ContactResponseSettings {
   /// body's own preconditioner before the blocks took over (most of the response's
   /// conjugate-gradient iterations, and each of them a solve over the whole body).
   bool sparse_blocks_from_start = false;
+  /// The contacts of islands that read only small fragments and projectiles (a
+  /// shattered body's debris) are answered by sequential impulses, at most this many
+  /// sweeps (sequential_impulses.h); the rest, and all of them at 0, by the augmented
+  /// Lagrangian. On the bunny at toughness 0, 16 sweeps made the step 0.57× as long
+  /// with the same sphere penetration; 8 left more islands to the fallback below.
+  int sequential_impulse_sweeps = 16;
+  /// The sweeps' tolerance per contact is the augmented Lagrangian's, but never more
+  /// than this share of its reach per step; at the cap their answer is kept if no
+  /// contact falls short by more than that, else the augmented Lagrangian answers the
+  /// island from the last step's impulses. At 0.1, a third of the bunny's debris
+  /// responses at toughness 0 fell back; at 0.5, a bar under 1e4 m/s² sank 0.18 m.
+  double sequential_impulse_reach_share = 0.25;
 };
 
 struct ContactResponseReport {
@@ -103,6 +115,7 @@ struct ContactResponseReport {
   int cg_iterations = 0;           ///< summed over outer iterations
   double largest_violation = 0.0;  ///< max_k (target_k − n · v_rel) after the response [m/s]
   bool ran_long = false;           ///< a solve took more than sparse_blocks_after iterations
+  int sweeps = 0;                  ///< sequential-impulse sweeps, where they answered (then no CG)
 };
 
 /// Corrects the velocities of `bodies` and `projectiles` so the contacts hold, and moves

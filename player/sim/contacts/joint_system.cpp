@@ -1,6 +1,7 @@
 #include "player/sim/contacts/joint_system.h"
 
 #include <algorithm>
+#include <limits>
 
 #include "player/sim/implicit_integrator.h"
 
@@ -38,7 +39,7 @@ constexpr Index kDenseFragmentNodes = 64;
 
 JointSystem::JointSystem(std::span<CollisionBody> bodies, std::span<Projectile> projectiles,
             std::span<const ContactConstraint> contacts)
-    : m_bodies(bodies), m_projectiles(projectiles) {
+    : m_bodies(bodies), m_projectiles(projectiles), m_contacts(contacts) {
   m_body_offset.assign(bodies.size(), -1);
   m_projectile_offset.assign(projectiles.size(), -1);
   const auto touch = [&](const ContactSide& s) {
@@ -70,12 +71,11 @@ JointSystem::JointSystem(std::span<CollisionBody> bodies, std::span<Projectile> 
     Row row;
     row.normal = contacts[k].normal;
     row.friction = contacts[k].friction;
-    double inverse_mass = add_side(contacts[k].a, 1.0, row);
-    inverse_mass += add_side(contacts[k].b, -1.0, row);
-    if (row.count == 0 || !(inverse_mass > 0.0)) continue;  // nothing here can move
+    const bool a_moves = add_side(contacts[k].a, 1.0, row);
+    const bool b_moves = add_side(contacts[k].b, -1.0, row);
+    if (!a_moves && !b_moves) continue;  // nothing here can move
     row.free_velocity = velocity(contacts[k].a) - velocity(contacts[k].b);
     row.required = contacts[k].target - row.normal.dot(row.free_velocity);
-    row.kappa = kPenaltyRatio / inverse_mass;
     row.reach = contacts[k].reach;
     row.lambda = std::max(contacts[k].impulse, 0.0);
     m_contact_row[k] = static_cast<Index>(m_rows.size());
@@ -96,6 +96,47 @@ bool JointSystem::use_sparse_blocks() {
   m_body_needs_own.assign(m_bodies.size(), false);
   m_sparse_active = true;
   return true;
+}
+
+bool JointSystem::rows_in_dense_blocks() const {
+  const std::vector<bool> sealed = sealed_groups();
+  return std::all_of(m_rows.begin(), m_rows.end(), [&](const Row& row) {
+    return std::all_of(row.entries.begin(), row.entries.begin() + row.count, [&](const Entry& e) {
+      const Index g = m_blocks.group_of(e.row);
+      return g != kInvalidIndex && sealed[g];
+    });
+  });
+}
+
+std::vector<bool> JointSystem::sealed_groups() const {
+  const Index outside = m_blocks.group_count();  // a free node in no dense block
+  std::vector<bool> sealed(static_cast<std::size_t>(outside), true);
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+    if (m_body_offset[bi] < 0) continue;
+    const ImplicitIntegrator& body = *m_bodies[bi].body;
+    const Matrix4Xu& tets = body.elasticity().tets();
+    for (Eigen::Index t = 0; t < tets.cols(); ++t) {
+      std::array<Index, 4> group{};
+      int free = 0;
+      for (int c = 0; c < 4; ++c) {
+        const Index r = body.system_row(tets(c, t));
+        if (r == kInvalidIndex) continue;
+        const Index g = m_blocks.group_of(m_body_offset[bi] + static_cast<Eigen::Index>(r));
+        group[free++] = g == kInvalidIndex ? outside : g;
+      }
+      if (std::all_of(group.begin(), group.begin() + free, [&](Index g) { return g == group[0]; })) continue;
+      for (int c = 0; c < free; ++c) {
+        if (group[c] != outside) sealed[group[c]] = false;
+      }
+    }
+  }
+  return sealed;
+}
+
+const BlockJacobi& JointSystem::factor_base_blocks() {
+  m_blocks.reset();
+  m_blocks.factor();
+  return m_blocks;
 }
 
 void JointSystem::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) {
@@ -231,7 +272,6 @@ void JointSystem::build_blocks() {
       m_outer_rows[k].weights[e] = m_rows[k].entries[e].weight;
     }
   }
-  m_blocks.set_outer_rows(m_outer_rows);
   m_row_terms.resize(m_rows.size());
 }
 
@@ -385,24 +425,50 @@ void JointSystem::for_each_body_block(const Eigen::VectorXd& in, Eigen::VectorXd
   }
 }
 
-double JointSystem::add_side(const ContactSide& s, double sign, Row& row) const {
+bool JointSystem::add_side(const ContactSide& s, double sign, Row& row) const {
   if (s.kind == ContactSide::Kind::Projectile) {
     row.entries[row.count++] = {m_projectile_offset[s.owner], sign};
-    return 1.0 / m_projectiles[s.owner].mass;
+    return m_projectiles[s.owner].mass < std::numeric_limits<double>::infinity();
   }
-  if (s.kind != ContactSide::Kind::Embedded || m_body_offset[s.owner] < 0) return 0.0;
+  if (s.kind != ContactSide::Kind::Embedded || m_body_offset[s.owner] < 0) return false;
   const ImplicitIntegrator& body = *m_bodies[s.owner].body;
-  double inverse_mass = 0.0;
+  bool moves = false;
   for (int i = 0; i < 4; ++i) {
     const NodeIndex node = body.elasticity().tets()(i, s.tet);
     const Index r = body.system_row(node);
     if (r == kInvalidIndex || s.weight[i] == 0.0) continue;
     row.entries[row.count++] = {m_body_offset[s.owner] + static_cast<Eigen::Index>(r), sign * s.weight[i]};
+    moves = true;
+  }
+  return moves;
+}
+
+double JointSystem::penalty_inverse_mass(const ContactSide& s, const Vec3& normal) const {
+  if (s.kind == ContactSide::Kind::Projectile) return 1.0 / m_projectiles[s.owner].mass;
+  if (s.kind != ContactSide::Kind::Embedded || m_body_offset[s.owner] < 0) return 0.0;
+  const ImplicitIntegrator& body = *m_bodies[s.owner].body;
+  double inverse_mass = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    const NodeIndex node = body.elasticity().tets()(i, s.tet);
+    if (body.system_row(node) == kInvalidIndex || s.weight[i] == 0.0) continue;
     const double lumped = body.system_mass_scale() * body.node_masses()[node];
-    const double diagonal = row.normal.dot(body.system_diagonal_block(node) * row.normal);
+    const double diagonal = normal.dot(body.system_diagonal_block(node) * normal);
     inverse_mass += s.weight[i] * s.weight[i] / std::clamp(diagonal, lumped, kMaxStiffnessShare * lumped);
   }
   return inverse_mass;
+}
+
+void JointSystem::set_penalties() {
+  if (m_penalties_set) return;
+  m_penalties_set = true;
+  for (std::size_t k = 0; k < m_contacts.size(); ++k) {
+    const Index r = m_contact_row[k];
+    if (r == kInvalidIndex) continue;
+    const double inverse_mass = penalty_inverse_mass(m_contacts[k].a, m_rows[r].normal) +
+                                penalty_inverse_mass(m_contacts[k].b, m_rows[r].normal);
+    m_rows[r].kappa = kPenaltyRatio / inverse_mass;
+  }
+  m_blocks.set_outer_rows(m_outer_rows);
 }
 
 Vec3 JointSystem::velocity(const ContactSide& s) const {

@@ -89,6 +89,23 @@ class JointSystem {
   /// stays zero, since no term couples it to another.
   bool use_sparse_blocks();
   std::vector<Row>& rows() { return m_rows; }
+  [[nodiscard]] const std::vector<Row>& rows() const { return m_rows; }
+
+  /// Whether every row reads only nodes inside the dense blocks (small fragments and
+  /// projectiles): then each side's answer to an impulse is its block's inverse
+  /// exactly, and the sequential-impulse response applies (sequential_impulses.h).
+  [[nodiscard]] bool rows_in_dense_blocks() const;
+  /// Per dense block: whether no tet joins it to another block or to a free node outside
+  /// the blocks, so that its block is all of 𝒜 its nodes see. Small fragments are
+  /// always sealed while the bodies' fragment ids match their tets; a block that is not
+  /// is left to the augmented Lagrangian, which sees the whole operator.
+  [[nodiscard]] std::vector<bool> sealed_groups() const;
+  /// The dense blocks of 𝒜 alone (no contact terms), factored.
+  const BlockJacobi& factor_base_blocks();
+  [[nodiscard]] const BlockJacobi& blocks() const { return m_blocks; }
+  /// Each row's κ, and the blocks' pairs of rows that update_blocks() fills: only the
+  /// augmented Lagrangian needs them, so it asks before its first iteration.
+  void set_penalties();
   [[nodiscard]] Index row_of(std::size_t contact) const { return m_contact_row[contact]; }
 
   /// y = (𝒜 + Σ_active κ n nᵀ ⊗ G + Σ η Gᵀ T G) x. Each row's force in parallel, then
@@ -166,13 +183,18 @@ class JointSystem {
   void for_each_body_block(const Eigen::VectorXd& in, Eigen::VectorXd& out,
                            void (ImplicitIntegrator::*op)(const Eigen::VectorXd&, Eigen::VectorXd&));
 
-  /// Adds a side's entries to the row; returns its lumped inverse mass along any direction.
-  double add_side(const ContactSide& s, double sign, Row& row) const;
+  /// Adds a side's entries to the row; returns whether the side can move.
+  bool add_side(const ContactSide& s, double sign, Row& row) const;
+  /// Σᵢ wᵢ² / (nᵀ Aᵢᵢ n) over the side's free nodes, Aᵢᵢ clamped to [1, kMaxStiffnessShare]
+  /// times the lumped mass: the point's inverse mass as the system's diagonal sees it.
+  [[nodiscard]] double penalty_inverse_mass(const ContactSide& s, const Vec3& normal) const;
 
   [[nodiscard]] Vec3 velocity(const ContactSide& s) const;
 
   std::span<CollisionBody> m_bodies;
   std::span<Projectile> m_projectiles;
+  std::span<const ContactConstraint> m_contacts;
+  bool m_penalties_set = false;
   std::vector<Eigen::Index> m_body_offset, m_projectile_offset;
   Eigen::Index m_size = 0;
   std::vector<Row> m_rows;
