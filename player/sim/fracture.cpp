@@ -125,10 +125,16 @@ bool FractureTopology::update_fragments(const Matrix4Xu& tets) {
   std::iota(parent.begin(), parent.end(), Index{0});
   for (const auto& slots : m_incident) {
     if (slots.size() < 2) continue;
-    const Index first = find_root(parent, slots.front().first);
+    // The node's tets joined one by one to the root of those before: that root moves
+    // whenever a smaller one joins. Kept fixed, a later tet re-pointed the old root and
+    // cut it from what it had just joined: tets sharing a node got different ids (a 4×4×3
+    // pile at toughness 0 had 2 such nodes by its 8th step).
+    Index joined = find_root(parent, slots.front().first);
     for (std::size_t i = 1; i < slots.size(); ++i) {
       const Index root = find_root(parent, slots[i].first);
-      if (root != first) parent[std::max(root, first)] = std::min(root, first);
+      if (root == joined) continue;
+      parent[std::max(root, joined)] = std::min(root, joined);
+      joined = std::min(root, joined);
     }
   }
   std::vector<Index> id(tet_count, kInvalidIndex);

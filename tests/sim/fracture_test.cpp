@@ -74,6 +74,22 @@ double separation_at_strain(double strain) {
   return *std::max_element(field.eigenvalue.begin(), field.eigenvalue.end());
 }
 
+// Tets sharing a node are one fragment, whatever order the union meets them in. Node 2
+// joins tet 2 to tets 3 and 4, which nodes 0 and 1 had already joined to tets 0 and 1:
+// the union once re-pointed tet 2's root a second time and cut {0, 3} off (two
+// fragments), so a node was in tets of two fragments.
+TEST(FractureTopology, TetsSharingANodeAreOneFragmentWhateverTheUnionOrder) {
+  Matrix4Xu tets(4, 5);
+  tets.col(0) << 0, 10, 11, 12;
+  tets.col(1) << 1, 13, 14, 15;
+  tets.col(2) << 2, 16, 17, 18;
+  tets.col(3) << 0, 2, 19, 20;
+  tets.col(4) << 1, 2, 21, 22;
+  const FractureTopology topology(tets, 23);
+  EXPECT_EQ(topology.fragment_count(), 1);
+  for (Index t = 0; t < 5; ++t) EXPECT_EQ(topology.tet_fragment()[t], 0) << "tet " << t;
+}
+
 TEST(Fracture, SkippingNodesBelowTheBoundChangesNoValueAboveIt) {
   // A bar bent and stretched unevenly, so its nodes' separations spread over a range.
   ImplicitIntegrator body(bar().rest_positions, bar().tets, kMaterial);
