@@ -8,6 +8,8 @@
 # ν = 0.4999 runs. Timings are of this machine: compare players in the same run
 # (PLAYER argument), never across machines.
 #   usage: scripts/realtime-budgets.sh [PLAYER]    (default: the release build's)
+#   SCENE_SOLVER="contact_sweeps = 0" adds that line to every scene's [solver] (an A/B of
+#   one setting with the same player).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 player=${1:-build/release/player/app/fissure-player}
@@ -29,7 +31,8 @@ fine=$(realpath out/bunny-5k-10024.h5)
 # report lands in $work/$1.json.
 play() {
   local name=$1 bundle_path=$2 expression=$3 steps=$4 threads=$5
-  sed -e "s|\"../../out/bunny-5k.h5\"|\"$bundle_path\"|" -e "$expression" "$sample" > "$work/$name.toml"
+  sed -e "s|\"../../out/bunny-5k.h5\"|\"$bundle_path\"|" -e "$expression" \
+    -e "s|^\[solver\]\$|[solver]\n${SCENE_SOLVER:-}|" "$sample" > "$work/$name.toml"
   "$player" -q run "$work/$name.toml" --steps "$steps" --no-render --no-energy-check -j "$threads" \
     --report "$work/$name.json" > /dev/null 2>&1 || echo "warning: $name exited $?" >&2
 }

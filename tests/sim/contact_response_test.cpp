@@ -51,7 +51,32 @@ struct Pile {
   double smallest_radius = 0.0;     ///< [m]
   std::size_t cg_iterations = 0, contacts = 0, most_contacts = 0;  ///< most: in one step
   std::size_t sweeps = 0;           ///< sequential-impulse sweeps
+  /// The most nodes, after any step, used by tets of two fragments (fragment ids that
+  /// disagree with the tets), and the first step that had one (−1: none).
+  std::size_t nodes_in_two_fragments = 0;
+  int first_disagreement = -1;
 };
+
+/// Nodes that tets of two different fragments use: none while the fragment ids are those
+/// of the tets' connected components.
+std::size_t nodes_in_two_fragments(const Body& body) {
+  const Matrix4Xu& tets = body.integrator().elasticity().tets();
+  const std::vector<Index>& fragment = body.topology.tet_fragment();
+  std::vector<Index> seen(static_cast<std::size_t>(body.integrator().node_count()), kInvalidIndex);
+  std::vector<bool> counted(seen.size(), false);
+  std::size_t count = 0;
+  for (Eigen::Index t = 0; t < tets.cols(); ++t) {
+    for (int c = 0; c < 4; ++c) {
+      const NodeIndex n = tets(c, t);
+      if (seen[n] == kInvalidIndex) seen[n] = fragment[t];
+      if (seen[n] != fragment[t] && !counted[n]) {
+        counted[n] = true;
+        ++count;
+      }
+    }
+  }
+  return count;
+}
 
 /// A grid of `cubes` × `cubes` × 3 cubes of 0.1 m that shatters into single tets at
 /// toughness 0 as it lands at 2 m/s, its fragments piling on the ground and on each
@@ -83,6 +108,9 @@ Pile run_pile(int cubes, int steps, int threads, int sweeps = WorldSettings{}.co
     pile.sweeps += report.contacts.response_sweeps;
     pile.contacts += report.contacts.contacts;
     pile.most_contacts = std::max(pile.most_contacts, report.contacts.contacts);
+    const std::size_t disagreeing = nodes_in_two_fragments(world.bodies()[0]);
+    if (disagreeing > 0 && pile.first_disagreement < 0) pile.first_disagreement = i;
+    pile.nodes_in_two_fragments = std::max(pile.nodes_in_two_fragments, disagreeing);
   }
   const ImplicitIntegrator& integrator = world.bodies()[0].integrator();
   pile.positions = integrator.positions();
@@ -129,6 +157,8 @@ TEST(ContactResponse, DebrisAnsweredBySequentialImpulsesStaysOnTheGroundWithoutT
   EXPECT_LT(impulses.deepest, 0.5 * impulses.smallest_radius);
   EXPECT_GT(impulses.sweeps, 0u);
   EXPECT_LT(impulses.cg_iterations, lagrangian.cg_iterations / 2);
+  // The sweeps take each small fragment's block as all of 𝒜 its nodes see.
+  EXPECT_EQ(impulses.nodes_in_two_fragments, 0u) << "first at step " << impulses.first_disagreement;
 }
 
 // With more contacts than one chunk, the response's passes and its blocks' assembly run

@@ -183,6 +183,9 @@ void JointSystem::precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) {
     m_bodies[bi].body->precondition_system(m_in, m_out);
     z.segment(offset, n) = m_out;
   }
+  // What a left-out piece's block would give its zero residual (the body's own
+  // preconditioner, factored before a split, may couple it to its old neighbours).
+  for (const Eigen::Index row : m_left_out) z.segment<3>(row).setZero();
   m_blocks.solve(r, z);
   m_sparse.solve(r, z);
 }
@@ -325,9 +328,7 @@ void JointSystem::add_fragment_groups(std::size_t bi, std::vector<std::vector<Ei
   for (NodeIndex node = 0; node < body.node_count(); ++node) {
     if (body.system_row(node) != kInvalidIndex) ++free_nodes[m_node_fragment[node]];
   }
-  const bool any_large =
-      std::any_of(free_nodes.begin(), free_nodes.end(), [](Index n) { return n > kDenseFragmentNodes; });
-  const std::vector<bool> in_contact = any_large ? fragments_in_contact(bi, fragments) : std::vector<bool>();
+  const std::vector<bool> in_contact = fragments_in_contact(bi, fragments);
   std::vector<Index> group(fragments, kInvalidIndex);
   for (NodeIndex node = 0; node < body.node_count(); ++node) {
     const Index r = body.system_row(node), f = m_node_fragment[node];
@@ -338,6 +339,12 @@ void JointSystem::add_fragment_groups(std::size_t bi, std::vector<std::vector<Ei
       // contacts on it (use_sparse_blocks).
       m_body_needs_own[bi] = true;
       if (!in_contact[f]) continue;
+    } else if (!in_contact[f]) {
+      // No block: its residual is zero and stays zero (no term couples it to another).
+      // Shattered bodies are mostly such pieces, and each block costs an assembly and a
+      // factorization per outer iteration.
+      m_left_out.push_back(m_body_offset[bi] + static_cast<Eigen::Index>(r));
+      continue;
     }
     auto& set = dense ? groups : sparse_groups;
     if (group[f] == kInvalidIndex) {

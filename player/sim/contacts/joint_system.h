@@ -146,9 +146,9 @@ class JointSystem {
   /// the number of fragments.
   Index map_node_fragments(const CollisionBody& b);
 
-  /// One dense block per fragment with at most kDenseFragmentNodes free nodes (a whole
-  /// small body counts as one fragment) and per projectile; their base values: the
-  /// mass terms and the fragment's tets' system blocks.
+  /// One dense block per fragment with at most kDenseFragmentNodes free nodes that a
+  /// contact touches (a whole small body counts as one fragment) and per projectile;
+  /// their base values: the mass terms and the fragment's tets' system blocks.
   void build_blocks();
 
   /// The nodes the rows touch, and each one's entries in the rows in row order
@@ -217,6 +217,7 @@ class JointSystem {
   std::vector<NodeEntry> m_node_entries;
   std::vector<Vec3> m_row_forces;       ///< multiply()'s scratch
   std::vector<bool> m_body_needs_own;   ///< per body: a fragment too large for a block
+  std::vector<Eigen::Index> m_left_out;  ///< first rows of the small fragments no contact touches
   Eigen::VectorXd m_in, m_out;  // scratch for the bodies' blocks
   std::vector<Index> m_node_fragment;  // scratch for balance_fragments
   Eigen::VectorXd m_net, m_mass_delta, m_shift;  // momentum_shifts' Σf; apply()'s 𝒜δ and shift
