@@ -276,6 +276,15 @@ void answer_debris(JointSystem& system, const ContactResponseSettings& settings,
   answer_by_lagrangian(system, settings, report);
 }
 
+/// Whether any row reads a dense block: if none (an intact body on the ground), there
+/// is no debris to find, and no pass over the bodies' tets to find it.
+bool touches_dense_blocks(const JointSystem& system) {
+  return std::any_of(system.rows().begin(), system.rows().end(), [&](const Row& row) {
+    return std::any_of(row.entries.begin(), row.entries.begin() + row.count,
+                       [&](const contact_detail::Entry& e) { return system.blocks().covers(e.row); });
+  });
+}
+
 /// Per contact: whether its island (the contacts joined through the small fragments and
 /// projectiles they touch) reads only sealed dense blocks (JointSystem::sealed_groups),
 /// so the sequential impulses can answer it. The large fragments (and any block a tet
@@ -314,7 +323,7 @@ ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::
   ContactResponseReport report;
   JointSystem system(bodies, projectiles, contacts);
   if (system.rows().empty()) return report;
-  if (settings.sequential_impulse_sweeps <= 0) {
+  if (settings.sequential_impulse_sweeps <= 0 || !touches_dense_blocks(system)) {
     answer_by_lagrangian(system, settings, report);
     write_impulses(system, contacts);
     return report;

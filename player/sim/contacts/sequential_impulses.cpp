@@ -25,7 +25,6 @@ class SequentialImpulses {
       : m_system(system), m_rows(system.rows()), m_blocks(blocks) {
     place_groups();
     m_contacts.resize(m_rows.size());
-    m_response_group.assign(2 * m_rows.size(), kInvalidIndex);
     std::size_t answers = 0;
     for (std::size_t k = 0; k < m_rows.size(); ++k) answers += find_groups(k, answers);
     m_answers.resize(answers);
@@ -43,8 +42,7 @@ class SequentialImpulses {
     for (std::size_t k = 0; k < m_rows.size(); ++k) solve_contact(k);
   }
 
-  /// The largest shortfall, and whether any contact misses what it is allowed (the
-  /// augmented Lagrangian's rule, contact_response.cpp).
+  /// How far the contacts are from their targets now (solve_by_sequential_impulses).
   struct Violation {
     double largest = 0.0;
     bool short_of_target = false;  ///< a contact misses its target by more than its tolerance
@@ -86,9 +84,10 @@ class SequentialImpulses {
     Eigen::Index local = 0;
     double weight = 0.0;
   };
-  /// One group's answer to the contact's unit impulses: 𝒜_g⁻¹ G_gᵀ F, rows × 3 at
+  /// Group g's answer to the contact's unit impulses: 𝒜_g⁻¹ G_gᵀ F, rows × 3 at
   /// m_answers[answer] (column-major), for m_local's rows [first, first + rows).
   struct Response {
+    Index group = kInvalidIndex;
     Eigen::Index first = 0, rows = 0;
     std::size_t answer = 0;
   };
@@ -133,8 +132,7 @@ class SequentialImpulses {
       const auto rows = 3 * static_cast<Eigen::Index>(m_blocks.group_rows(g).size());
       // Each side is one tet (or projectile) in one sealed block (JointSystem::sealed_groups).
       FISSURE_ASSERT(c.response_count < 2);
-      c.responses[c.response_count++] = {m_group_start[g], rows, start + size};
-      m_response_group[2 * k + static_cast<std::size_t>(c.response_count - 1)] = g;
+      c.responses[c.response_count++] = {g, m_group_start[g], rows, start + size};
       size += 3 * static_cast<std::size_t>(rows);
     }
     return size;
@@ -156,8 +154,7 @@ class SequentialImpulses {
       for (int e = 0; e < c.count; ++e) {
         const Eigen::Index local = c.reach[e].local - response.first;
         if (local < 0 || local >= response.rows) continue;
-        answer.noalias() += (c.reach[e].weight * columns(m_response_group[2 * k + static_cast<std::size_t>(s)], response,
-                                                          local)).lazyProduct(c.frame);
+        answer.noalias() += (c.reach[e].weight * columns(response, local)).lazyProduct(c.frame);
       }
       for (int e = 0; e < c.count; ++e) {
         const Eigen::Index local = c.reach[e].local - response.first;
@@ -178,7 +175,7 @@ class SequentialImpulses {
 
   /// 𝒜_g⁻¹'s three columns for the node at rows [local, local + 3) of the group, made
   /// once per response.
-  Eigen::Map<const Eigen::MatrixX3d> columns(Index group, const Response& r, Eigen::Index local) {
+  Eigen::Map<const Eigen::MatrixX3d> columns(const Response& r, Eigen::Index local) {
     std::size_t& start = m_column_start[static_cast<std::size_t>((r.first + local) / 3)];
     if (start == kNoColumns) {
       start = m_columns.size();
@@ -186,7 +183,7 @@ class SequentialImpulses {
       m_unit.setZero(r.rows, 3);
       m_unit.middleRows<3>(local).setIdentity();
       Eigen::Map<Eigen::MatrixX3d> out(m_columns.data() + start, r.rows, 3);
-      m_blocks.solve_group(group, m_unit, out);
+      m_blocks.solve_group(r.group, m_unit, out);
     }
     return {m_columns.data() + start, r.rows, 3};
   }
@@ -229,7 +226,6 @@ class SequentialImpulses {
   std::vector<Eigen::Index> m_group_start;  ///< per group, its first row in m_local (−1: untouched)
   Eigen::VectorXd m_local;
   std::vector<Contact> m_contacts;
-  std::vector<Index> m_response_group;  ///< per contact, its two responses' groups
   std::vector<double> m_answers;        ///< every Response's answer
   static constexpr std::size_t kNoColumns = static_cast<std::size_t>(-1);
   std::vector<std::size_t> m_column_start;  ///< per node of m_local, its columns in m_columns
