@@ -240,8 +240,8 @@ void answer_by_lagrangian(JointSystem& system, const ContactResponseSettings& se
   system.apply(solver.delta(), solver.forces(), settings.dt);
 }
 
-/// The sequential impulses' answer, applied if it is kept (needs
-/// system.rows_in_dense_blocks()); otherwise the augmented Lagrangian's.
+/// The sequential impulses' answer, applied if it is kept (needs every row to read only
+/// sealed dense blocks: debris_contacts); otherwise the augmented Lagrangian's.
 ///
 /// The sweeps stop on the augmented Lagrangian's rule, each contact's tolerance never
 /// more than a share of its reach per step: they stop exactly at their tolerance, where

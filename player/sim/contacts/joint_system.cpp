@@ -98,16 +98,6 @@ bool JointSystem::use_sparse_blocks() {
   return true;
 }
 
-bool JointSystem::rows_in_dense_blocks() const {
-  const std::vector<bool> sealed = sealed_groups();
-  return std::all_of(m_rows.begin(), m_rows.end(), [&](const Row& row) {
-    return std::all_of(row.entries.begin(), row.entries.begin() + row.count, [&](const Entry& e) {
-      const Index g = m_blocks.group_of(e.row);
-      return g != kInvalidIndex && sealed[g];
-    });
-  });
-}
-
 std::vector<bool> JointSystem::sealed_groups() const {
   const Index outside = m_blocks.group_count();  // a free node in no dense block
   std::vector<bool> sealed(static_cast<std::size_t>(outside), true);

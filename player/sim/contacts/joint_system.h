@@ -91,10 +91,6 @@ class JointSystem {
   std::vector<Row>& rows() { return m_rows; }
   [[nodiscard]] const std::vector<Row>& rows() const { return m_rows; }
 
-  /// Whether every row reads only nodes inside the dense blocks (small fragments and
-  /// projectiles): then each side's answer to an impulse is its block's inverse
-  /// exactly, and the sequential-impulse response applies (sequential_impulses.h).
-  [[nodiscard]] bool rows_in_dense_blocks() const;
   /// Per dense block: whether no tet joins it to another block or to a free node outside
   /// the blocks, so that its block is all of 𝒜 its nodes see. Small fragments are
   /// always sealed while the bodies' fragment ids match their tets; a block that is not

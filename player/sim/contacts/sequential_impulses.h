@@ -38,7 +38,8 @@ struct SequentialImpulsesAnswer {
   bool acceptable = false;         ///< no contact misses its target by more than `acceptable` says
 };
 
-/// Needs system.rows_in_dense_blocks(). Updates each row's λ (its normal impulse),
+/// Needs every row to read only sealed dense blocks (JointSystem::sealed_groups): each
+/// side's answer to an impulse is then its block's inverse exactly. Updates each row's λ (its normal impulse),
 /// starting from it (warm start). The sweeps stop once no contact misses its target by
 /// more than its `tolerance`, nor pushes while separating faster than that (the
 /// augmented Lagrangian's rule, contact_response.cpp), or at `max_sweeps`; then the
