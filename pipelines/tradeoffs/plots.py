@@ -23,6 +23,8 @@ THESIS_TABLE_II = ((10, 5715), (20, 6231), (31, 6629), (41, 6880), (50, 6907), (
 THESIS_TRIANGLES = 5000
 DEFAULT_STEPS_PER_S = 240     # the player's dt, 1/240 s
 DEFAULT_TOLERANCE = 1e-4      # solver.tolerance, CG with the lagged Cholesky preconditioner
+DEFAULT_CONTACT_SWEEPS = 16   # solver.contact_sweeps (ContactResponseSettings::sequential_impulse_sweeps)
+ENERGY_BOUND = 1.01           # energy never above what was put in, +1 % (the energy grid's bound)
 
 
 def read(folder: Path, name: str) -> list:
@@ -350,7 +352,49 @@ def cage_method(folder: Path):
     return "cage-method.png", fig
 
 
-PLOTS = (walls, contacts, cages, triangles, dt, tolerance, spin, cage_method)
+def sweeps_label(n: float) -> str:
+    return "0 (AL)" if n == 0 else f"{int(n)}"
+
+
+def debris(folder: Path):
+    rows = sorted((r for r in read(folder, "debris.csv") if r["stopped"] == "0"), key=lambda r: float(r["contact_sweeps"]))
+    if not rows:
+        return None
+    fig, (cost, depth, energy, tradeoff) = figure(
+        4, "Sequential-impulse sweeps for debris (bunny-drop at toughness 0, hundreds of fragments; 1 thread)")
+    n = column(rows, "contact_sweeps")
+    collisions, sunk = column(rows, "collisions_ms_mean"), [1e3 * v for v in column(rows, "sphere_penetration_max_m")]
+    cost.plot(n, collisions, "o-", label="collision phase")
+    cost.plot(n, column(rows, "step_ms_mean"), "s--", label="whole step")
+    cost.set(xlabel="solver.contact_sweeps", ylabel="ms per step (mean)", title="cost")
+    cost.set_ylim(bottom=0)
+    cost.legend()
+    depth.plot(n, sunk, "o-", label="deepest over the run")
+    depth.plot(n, [1e3 * v for v in column(rows, "sphere_penetration_final_m")], "s--", label="deepest at the end")
+    depth.set(xlabel="solver.contact_sweeps", ylabel="mm", title="collision spheres in obstacles")
+    depth.set_ylim(0, 1.25 * max(sunk))
+    depth.legend()
+    energy.plot(n, column(rows, "energy_peak_over_given"), "o-")
+    energy.axhline(ENERGY_BOUND, color=EXACT, linestyle="--", linewidth=1, label="bound: what was put in +1 %")
+    energy.set(xlabel="solver.contact_sweeps", ylabel="peak energy ÷ energy given", title="energy")
+    energy.legend()
+    for ax in (cost, depth, energy):
+        ax.set_xscale("symlog", linthresh=1)
+        ticks_at(ax, n, sweeps_label)
+        mark_default(ax, DEFAULT_CONTACT_SWEEPS)
+    tradeoff.plot(collisions, sunk, "o")  # no line: the sweeps do not order the cost
+    label_points(tradeoff, collisions, sunk, [sweeps_label(v) for v in n])
+    if DEFAULT_CONTACT_SWEEPS in n:
+        i = n.index(DEFAULT_CONTACT_SWEEPS)
+        mark_default_point(tradeoff, collisions[i], sunk[i])
+    tradeoff.set(xlabel="collision phase, ms per step (mean)", ylabel="deepest sphere, mm",
+                 title="accuracy against cost")
+    tradeoff.set_xlim(0, 1.15 * max(collisions))
+    tradeoff.set_ylim(0, 1.25 * max(sunk))
+    return "debris.png", fig
+
+
+PLOTS = (walls, contacts, cages, triangles, dt, tolerance, spin, cage_method, debris)
 
 
 def plot_all(data: Path, out: Path) -> list:

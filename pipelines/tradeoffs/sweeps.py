@@ -1,7 +1,7 @@
 """The measurements of the trade-study: each sweep runs Fissure's programs and leaves CSV
 files (and the programs' own Markdown tables) in a folder. Plotting is plots.py's job.
 
-Five sweeps, each named by what it varies:
+Six sweeps, each named by what it varies:
   bake      wall resolution and bake-side sphere radius (tests/bench/fissure_stage2_sweep)
   draw      cage tet count and triangle count against replication, step and draw time
             (tests/bench/fissure_render_bench)
@@ -10,6 +10,8 @@ Five sweeps, each named by what it varies:
             and fissure-player, through their command lines)
   cage-method  the cage: hand-made (data/cages) against automatic (`fissure-bake cage
             --method lattice|wrap`) at the same counts: replication and the physics step
+  debris    the contact response's sequential-impulse sweeps (`solver.contact_sweeps`) on
+            the bunny shattered into hundreds of fragments: collision time against sinking
 """
 
 import csv
@@ -53,6 +55,7 @@ class Tools:
             "solver": [self.bench("fissure_tradeoff_sweep")],
             "contacts": [self.bake, self.player],
             "cage-method": [self.bake, self.player],
+            "debris": [self.bake, self.player],
         }[sweep]
         missing = [f"{p} is not built" for p in needs if not p.is_file()]
         if sweep == "contacts" and shutil.which("h5dump") is None:
@@ -316,16 +319,87 @@ def run_cage_methods(tools: Tools, quick: bool, staging: Path) -> None:
         writer.writerows(rows)
 
 
+# --- debris: sequential impulses against the augmented Lagrangian ---------------------
+
+@dataclass(frozen=True)
+class DebrisPlan:
+    sweeps: tuple        # solver.contact_sweeps; 0 answers every contact by the augmented Lagrangian
+    steps: int           # the bunny lands at about step 24 and is hundreds of fragments by step 40
+    time_limit_s: float
+
+
+FULL_DEBRIS = DebrisPlan((0, 2, 4, 8, 16, 32, 64), 240, 300.0)
+QUICK_DEBRIS = DebrisPlan((0, 16), 60, 120.0)
+DEBRIS_COLUMNS = ["contact_sweeps", "fragments", "step_ms_mean", "step_ms_p99", "step_ms_max", "collisions_ms_mean",
+                  "sweeps_per_step", "cg_per_step", "sphere_penetration_max_m", "sphere_penetration_final_m",
+                  "vertex_penetration_max_m", "energy_peak_over_given", "stopped"]
+
+
+def debris_scene(base: str, bundle: str, sweeps: int) -> str:
+    """bunny-drop.toml with its bundle replaced, toughness 0 (the bunny shatters on landing)
+    and `solver.contact_sweeps` set."""
+    scene = re.sub(r"^(\s*bundle\s*=).*$", rf'\1 "{bundle}"', base, count=1, flags=re.M)
+    scene, toughened = re.subn(r"^(\s*toughness\s*=).*$", r"\1 0.0", scene, count=1, flags=re.M)
+    scene, solver = re.subn(r"^\[solver\].*$", lambda m: f"{m.group(0)}\ncontact_sweeps = {sweeps}", scene, count=1,
+                            flags=re.M)
+    if not (toughened and solver):
+        raise SweepError(f"{BASE_SCENE} must have a [solver] table and a material toughness for the debris sweep")
+    return scene
+
+
+def debris_row(sweeps: int, report: dict) -> dict:
+    row = {"contact_sweeps": sweeps, "stopped": int(report is None)}
+    if report is None:
+        return row
+    try:
+        summary, timings, steps = report["summary"], report["timings"], report["steps"]
+        given = summary["energy_initial_J"] + summary["energy_put_in_J"]
+        row.update(fragments=summary["fragments"], step_ms_mean=timings["step"]["mean_ms"],
+                   step_ms_p99=timings["step"]["p99_ms"], step_ms_max=timings["step"]["max_ms"],
+                   collisions_ms_mean=timings["collisions"]["mean_ms"],
+                   sweeps_per_step=summary["contact_response_sweeps"] / steps,
+                   cg_per_step=summary["contact_response_iterations"] / steps,
+                   sphere_penetration_max_m=summary["sphere_penetration_max_m"],
+                   sphere_penetration_final_m=summary["sphere_penetration_final_m"],
+                   vertex_penetration_max_m=summary["vertex_penetration_max_m"],
+                   energy_peak_over_given=summary["energy_max_J"] / given)
+    except KeyError as e:
+        raise SweepError(f"the player's report has no {e} (run it with diagnostics on)")
+    return row
+
+
+def run_debris(tools: Tools, quick: bool, staging: Path) -> None:
+    plan = QUICK_DEBRIS if quick else FULL_DEBRIS
+    work = staging / "debris-work"
+    work.mkdir()
+    log = staging / "debris.log"
+    base = (tools.repo / BASE_SCENE).read_text()
+    bake_bundle(tools, work / "bunny.h5", log)
+    rows = []
+    for sweeps in plan.sweeps:
+        scene = work / f"sweeps-{sweeps}.toml"
+        scene.write_text(debris_scene(base, "bunny.h5", sweeps))
+        print(f"    contact_sweeps = {sweeps}, toughness 0 ({plan.steps} steps)", flush=True)
+        report = play(tools, scene, work / f"sweeps-{sweeps}.json", ContactPlan((), plan.steps, plan.time_limit_s), log)
+        rows.append(debris_row(sweeps, report))
+    with open(staging / "debris.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, DEBRIS_COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 def run_sweep(tools: Tools, sweep: str, quick: bool, staging: Path) -> None:
     if sweep == "contacts":
         run_contacts(tools, quick, staging)
+    elif sweep == "debris":
+        run_debris(tools, quick, staging)
     elif sweep == "cage-method":
         run_cage_methods(tools, quick, staging)
     else:
         run_bench(tools, sweep, quick, staging)
 
 
-SWEEPS = ("bake", "draw", "solver", "contacts", "cage-method")
+SWEEPS = ("bake", "draw", "solver", "contacts", "cage-method", "debris")
 # The files each sweep leaves; the rest of its staging folder (bundles, scenes) is scratch.
 OUTPUTS = {
     "bake": ("walls.csv", "spheres-bake.csv", "bake.md"),
@@ -333,4 +407,5 @@ OUTPUTS = {
     "solver": ("dt.csv", "tolerance.csv", "spin.csv", "solver.md"),
     "contacts": ("contacts.csv",),
     "cage-method": ("cage-method.csv",),
+    "debris": ("debris.csv",),
 }

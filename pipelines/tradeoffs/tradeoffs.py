@@ -3,7 +3,7 @@
 files and PNG plots into one folder. docs/tradeoffs.md shows the plots and says what to
 pick.
 
-  python3 pipelines/tradeoffs/tradeoffs.py                 # everything, into docs/tradeoffs/ (~2.5 min on 2 cores)
+  python3 pipelines/tradeoffs/tradeoffs.py                 # everything, into docs/tradeoffs/ (~3.5 min on 2 cores)
   python3 pipelines/tradeoffs/tradeoffs.py --quick         # CI's reduced sweep, into out/tradeoffs-quick/
   python3 pipelines/tradeoffs/tradeoffs.py --only solver   # one sweep; the other files are kept
   python3 pipelines/tradeoffs/tradeoffs.py --plots-only    # re-plot the CSV files already there
@@ -11,7 +11,8 @@ pick.
 Sweeps: bake (wall resolution, bake-side sphere radius), draw (cage tets and triangles
 against replication, step and draw time), solver (dt, CG tolerance, exact against warped
 stiffness), contacts (sphere radius in the player against the exact every-vertex mode),
-cage-method (hand-made cages against `fissure-bake cage --method lattice|wrap`).
+cage-method (hand-made cages against `fissure-bake cage --method lattice|wrap`), debris
+(the contact response's sequential-impulse sweeps on the shattered bunny).
 
 Needs a release build (scripts/build.sh release), matplotlib (python3-matplotlib) and
 h5dump (hdf5-tools): scripts/install-deps.sh installs both.
@@ -45,7 +46,7 @@ def parse_arguments() -> argparse.Namespace:
         description="Run Fissure's speed/accuracy sweeps and plot them (CSV and PNG files).",
         epilog="docs/tradeoffs.md explains each plot and what to pick.")
     parser.add_argument("--quick", action="store_true",
-                        help="the reduced sweep CI runs (2-3 points per knob, small images; ~20 s)")
+                        help="the reduced sweep CI runs (2-3 points per knob, small images; ~30 s)")
     parser.add_argument("--out", type=Path,
                         help="output folder (default: docs/tradeoffs, or out/tradeoffs-quick with --quick)")
     parser.add_argument("--build", type=Path, default=REPO / "build" / "release",

@@ -122,8 +122,21 @@ def check_cage_method(out: Path) -> None:
               f"{method} at {asked} tets: replication {r['instances_per_triangle']} within 1.2 × {hand}")
 
 
+def check_debris(out: Path) -> None:
+    """Record 0072: with sweeps, the sequential impulses answer the shattered bunny's debris;
+    at 0, the augmented Lagrangian answers everything; both keep the energy bound."""
+    table = {int(r["contact_sweeps"]): r for r in rows(out, "debris.csv")}
+    check(sorted(table) == [0, 16], f"the quick sweep plays contact_sweeps 0 and 16: {sorted(table)}")
+    check(all(r["stopped"] == "0" for r in table.values()), "no debris run passed its time limit")
+    check(float(table[0]["sweeps_per_step"]) == 0, f"contact_sweeps = 0 runs no sweep: {table[0]}")
+    check(float(table[16]["sweeps_per_step"]) > 0, f"contact_sweeps = 16 answers some debris by sweeps: {table[16]}")
+    for r in table.values():
+        check(int(r["fragments"]) >= 100, f"toughness 0 shatters the bunny into hundreds of fragments: {r}")
+        check(float(r["energy_peak_over_given"]) <= 1.01, f"energy stays within what was given +1 %: {r}")
+
+
 def check_plots(out: Path) -> None:
-    for name in ("walls", "contacts", "cages", "triangles", "dt", "tolerance", "spin", "cage-method"):
+    for name in ("walls", "contacts", "cages", "triangles", "dt", "tolerance", "spin", "cage-method", "debris"):
         png = out / f"{name}.png"
         check(png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000,
               f"{name}.png is a plot")
@@ -174,7 +187,8 @@ def main() -> int:
         if run.returncode != 0:
             print(f"FAIL: tradeoffs.py --quick exited with {run.returncode}\n{run.stderr}", file=sys.stderr)
             return 1
-        for checks in (check_walls, check_spheres, check_draw, check_solver, check_cage_method, check_plots):
+        for checks in (check_walls, check_spheres, check_draw, check_solver, check_cage_method, check_debris,
+                       check_plots):
             try:
                 checks(out)
             except (OSError, KeyError, IndexError, ValueError) as e:  # a missing file or column: report, go on
