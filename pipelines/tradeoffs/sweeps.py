@@ -212,12 +212,17 @@ def contact_row(mode: str, factor, target: float, radii: list, report: dict) -> 
     return row
 
 
+def player_sweep_start(tools: Tools, staging: Path, sweep: str) -> tuple:
+    """What a sweep that plays bunny-drop starts from: its scratch folder (made), its log
+    and the base scene's text."""
+    work = staging / f"{sweep}-work"
+    work.mkdir()
+    return work, staging / f"{sweep}.log", (tools.repo / BASE_SCENE).read_text()
+
+
 def run_contacts(tools: Tools, quick: bool, staging: Path) -> None:
     plan = QUICK_CONTACTS if quick else FULL_CONTACTS
-    work = staging / "contacts-work"
-    work.mkdir()
-    log = staging / "contacts.log"
-    base = (tools.repo / BASE_SCENE).read_text()
+    work, log, base = player_sweep_start(tools, staging, "contacts")
     bake_bundle(tools, work / "default.h5", log)
     radius = default_radius(tools, work / "default.h5")
     rows = []
@@ -286,10 +291,7 @@ def replication(tools: Tools, cages: list) -> dict:
 
 def run_cage_methods(tools: Tools, quick: bool, staging: Path) -> None:
     plan = QUICK_CAGE_METHODS if quick else FULL_CAGE_METHODS
-    work = staging / "cage-method-work"
-    work.mkdir()
-    log = staging / "cage-method.log"
-    base = (tools.repo / BASE_SCENE).read_text()
+    work, log, base = player_sweep_start(tools, staging, "cage-method")
     rows, cages = [], []
     for tets in plan.counts:
         for method in CAGE_METHODS:
@@ -370,10 +372,7 @@ def debris_row(sweeps: int, report: dict) -> dict:
 
 def run_debris(tools: Tools, quick: bool, staging: Path) -> None:
     plan = QUICK_DEBRIS if quick else FULL_DEBRIS
-    work = staging / "debris-work"
-    work.mkdir()
-    log = staging / "debris.log"
-    base = (tools.repo / BASE_SCENE).read_text()
+    work, log, base = player_sweep_start(tools, staging, "debris")
     bake_bundle(tools, work / "bunny.h5", log)
     rows = []
     for sweeps in plan.sweeps:
