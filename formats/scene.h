@@ -150,15 +150,16 @@ struct SceneSolverSettings {
   /// energy bound in every case (docs/decisions/0033-halving-substeps-that-gain.md).
   int energy_halvings = 6;
   /// The contact response's outer iterations at most per answer, 1 … 64
-  /// (sim::WorldSettings::contact_iterations). A pile of hundreds of fragments uses them
+  /// (sim::ContactSettings::iterations). A pile of hundreds of fragments uses them
   /// all: at 4 the bunny at toughness 0 spends 28 % less in collisions with no deeper
   /// contacts, but a 1000 m/s hit on a light bar then leaves spheres metres deep, so 8
   /// stays the default (docs/decisions/0034-contact-iterations-default-8.md).
   int contact_iterations = 8;
   /// A contact response among small fragments and projectiles only is answered by
   /// sequential impulses, at most this many sweeps, 0 … 1024
-  /// (sim::WorldSettings::contact_sweeps); 0 = always the augmented Lagrangian, the
-  /// answer of every response before (docs/decisions/0072-sequential-impulses-for-debris.md).
+  /// (sim::ContactSettings::sequential_impulse_sweeps); 0 = always the augmented
+  /// Lagrangian, the answer of every response before
+  /// (docs/decisions/0072-sequential-impulses-for-debris.md).
   int contact_sweeps = 16;
   /// Islands of fragments slower than sleep_speed for sleep_time are held still until
   /// something closes on them (sim::SleepSettings); sleep_speed 0 = never.

@@ -23,7 +23,7 @@ THESIS_TABLE_II = ((10, 5715), (20, 6231), (31, 6629), (41, 6880), (50, 6907), (
 THESIS_TRIANGLES = 5000
 DEFAULT_STEPS_PER_S = 240     # the player's dt, 1/240 s
 DEFAULT_TOLERANCE = 1e-4      # solver.tolerance, CG with the lagged Cholesky preconditioner
-DEFAULT_CONTACT_SWEEPS = 16   # solver.contact_sweeps (ContactResponseSettings::sequential_impulse_sweeps)
+DEFAULT_CONTACT_SWEEPS = 16   # solver.contact_sweeps (ContactSettings::sequential_impulse_sweeps)
 ENERGY_BOUND = 1.01           # energy never above what was put in, +1 % (the energy grid's bound)
 
 

@@ -232,8 +232,8 @@ LoadedScene load_scene(const formats::Scene& scene) {
   settings.exact_when_gaining = exact_resolve(scene.solver.exact_when_gaining);
   settings.exact_gain_share = scene.solver.exact_gain_share;
   settings.energy_halvings = scene.solver.energy_halvings;
-  settings.contact_iterations = scene.solver.contact_iterations;
-  settings.contact_sweeps = scene.solver.contact_sweeps;
+  settings.contacts.iterations = scene.solver.contact_iterations;
+  settings.contacts.sequential_impulse_sweeps = scene.solver.contact_sweeps;
   settings.sleep = {scene.solver.sleep_speed, scene.solver.sleep_time};
   settings.min_dt = scene.solver.min_dt;
   settings.max_substep = scene.solver.max_substep;

@@ -327,10 +327,8 @@ void World::collide(double dt, StepReport& report) {
   cs.dt = dt;
   cs.gravity = m_settings.step.gravity;
   cs.self_collision = m_settings.self_collision;
-  cs.iterations = m_settings.contact_iterations;
-  cs.sparse_blocks_after = m_settings.contact_sparse_blocks_after;
+  cs.contacts = m_settings.contacts;
   cs.sparse_blocks_from_start = in_pile();
-  cs.sequential_impulse_sweeps = m_settings.contact_sweeps;
   cs.impulses = &m_contact_impulses;
   // With the last substep's impulses, before the contacts are found (collision.h).
   resist_rolling(collision_bodies, m_environment, m_contact_impulses);
@@ -374,7 +372,7 @@ void World::collide(double dt, StepReport& report) {
       m_restitution_futile = false;
     }
   }
-  m_pile_substeps_left = counts.ran_long ? m_settings.contact_sparse_block_memory
+  m_pile_substeps_left = counts.ran_long ? m_settings.contacts.sparse_block_memory
                                          : std::max(m_pile_substeps_left - 1, 0);
   report.collisions += seconds_since(start);
 }

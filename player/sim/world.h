@@ -53,25 +53,16 @@ struct WorldSettings {
   bool collisions = true;
   bool self_collision = false;
   CollisionPoints collision_points = CollisionPoints::Spheres;
-  int contact_iterations = 8;
-  /// ContactResponseSettings::sparse_blocks_after; for comparison, a large value: never.
-  int contact_sparse_blocks_after = 40;
-  /// After a substep whose contact response ran long (ContactResponseReport::ran_long),
-  /// this many more substeps make the response's sparse blocks before its first solve
-  /// (ContactResponseSettings::sparse_blocks_from_start); 0: never, for comparison.
-  int contact_sparse_block_memory = 16;
-  /// A contact response among small fragments and projectiles only (a shattered body's
-  /// debris) is answered by sequential impulses, at most this many sweeps
-  /// (ContactResponseSettings::sequential_impulse_sweeps); 0: always the augmented
-  /// Lagrangian, for comparison.
-  int contact_sweeps = 16;
+  /// The contacts' tuning values (contact_settings.h); a scene sets contact_iterations
+  /// and contact_sweeps from its [solver] table.
+  ContactSettings contacts;
   /// Each fragment's rigid rotation within a step moves on an arc, not a line
   /// (rigid_rotation.h); off: plain backward Euler, for comparison.
   bool rotate_on_arcs = true;
   /// Restitution gives back at most what a substep would otherwise lose (World::collide);
   /// off: Newton's rule on every contact alone, for comparison.
   bool restitution_within_budget = true;
-  /// In a pile (a contact response ran long within contact_sparse_block_memory
+  /// In a pile (a contact response ran long within contacts.sparse_block_memory
   /// substeps), after a substep whose inelastic answer ended above its budget anyway, the
   /// next substep answers inelastically first and restitution only if there is room
   /// (World::collide); off: restitution first always, for comparison.
@@ -316,7 +307,7 @@ class World {
   StepStatus solve_bodies(const StepSettings& step, StepReport& report);
   void launch_and_move_projectiles(double dt);
   void collide(double dt, StepReport& report);
-  /// In a pile: a contact response ran long within the last contact_sparse_block_memory
+  /// In a pile: a contact response ran long within the last contacts.sparse_block_memory
   /// substeps (many fragments coupled mostly through their contacts). There the response
   /// makes its sparse blocks before its first solve, and after a futile restitution the
   /// inelastic answer comes first (collide()).
@@ -403,7 +394,7 @@ class World {
   std::vector<Matrix3Xd> m_previous_positions;  ///< per body, at the start of the last whole step
   ContactImpulses m_contact_impulses;  ///< the last step's, to warm-start the next
   /// Substeps the world still counts as in a pile (in_pile()): set to
-  /// contact_sparse_block_memory by a response that ran long, one less each substep after.
+  /// contacts.sparse_block_memory by a response that ran long, one less each substep after.
   int m_pile_substeps_left = 0;
   /// The last substep that restituted ended above its budget even inelastically: the
   /// next answers inelastically first (collide()).

@@ -39,8 +39,8 @@ TEST(ContactResponse, AnOverlargeWarmStartDoesNotThrowTheBallOff) {
   std::printf("ball leaves at %.4g m/s for a target of %g m/s after %d iterations; impulse %.4g N s of %.4g needed\n",
               balls[0].velocity.z(), target, report.outer_iterations, contacts[0].impulse, needed);
   // Within what the iterations may leave: 10 % of the velocity change asked for.
-  EXPECT_NEAR(balls[0].velocity.z(), target, settings.relative_violation * (target - falling));
-  EXPECT_NEAR(contacts[0].impulse, needed, settings.relative_violation * needed);
+  EXPECT_NEAR(balls[0].velocity.z(), target, settings.contacts.relative_violation * (target - falling));
+  EXPECT_NEAR(contacts[0].impulse, needed, settings.contacts.relative_violation * needed);
 }
 
 /// What run_pile() leaves.
@@ -81,8 +81,8 @@ std::size_t nodes_in_two_fragments(const Body& body) {
 /// A grid of `cubes` × `cubes` × 3 cubes of 0.1 m that shatters into single tets at
 /// toughness 0 as it lands at 2 m/s, its fragments piling on the ground and on each
 /// other, after `steps` steps on at most `threads` threads (0: TBB's default), its debris
-/// answered by sequential impulses of at most `sweeps` (WorldSettings::contact_sweeps).
-Pile run_pile(int cubes, int steps, int threads, int sweeps = WorldSettings{}.contact_sweeps) {
+/// answered by sequential impulses of at most `sweeps` (ContactSettings::sequential_impulse_sweeps).
+Pile run_pile(int cubes, int steps, int threads, int sweeps = WorldSettings{}.contacts.sequential_impulse_sweeps) {
   std::optional<tbb::global_control> limit;
   if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   const double side = 0.1 * cubes;
@@ -97,7 +97,7 @@ Pile run_pile(int cubes, int steps, int threads, int sweeps = WorldSettings{}.co
   WorldSettings settings;
   settings.fracture = true;
   settings.self_collision = true;
-  settings.contact_sweeps = sweeps;
+  settings.contacts.sequential_impulse_sweeps = sweeps;
   World world({body}, environment, {}, settings);
   Pile pile;
   for (int i = 0; i < steps; ++i) {
@@ -127,7 +127,7 @@ Pile run_pile(int cubes, int steps, int threads, int sweeps = WorldSettings{}.co
 // responses ended on the missing half, so pieces sank with a contact every step (13 cm,
 // six sphere radii, in 120 steps). With the line search, no sphere sinks by more than
 // half the smallest radius. The augmented Lagrangian answers every response here
-// (contact_sweeps 0); the test below has the default.
+// (sequential_impulse_sweeps 0); the test below has the default.
 TEST(ContactResponse, APileOfFragmentsStaysOnTheGround) {
   const Pile pile = run_pile(4, 120, 0, 0);
   std::printf("%u fragments; deepest sphere penetration %.3g m, smallest radius %.3g m; %zu contacts and %zu "
@@ -178,7 +178,7 @@ TEST(ContactResponse, APileEndsTheSameWhateverTheThreadCount) {
 
 /// What a slab (98 nodes, unbreakable: one fragment too large for a dense block) did
 /// with a 3×3×2 grid of toughness 0 shattering on it, in `steps` steps (WorldSettings's
-/// contact_sparse_blocks_after and contact_sparse_block_memory).
+/// ContactSettings::sparse_blocks_after and sparse_block_memory).
 Pile run_pile_on_slab(int sparse_blocks_after, int steps, int sparse_block_memory = 16) {
   const TetMesh slab = testing::grid_cage(Vec3(0, 0, 0.001), Vec3(0.6, 0.6, 0.101), 6, 6, 1);
   const TetMesh grid = testing::grid_cage(Vec3(0.15, 0.15, 0.12), Vec3(0.45, 0.45, 0.32), 3, 3, 2);
@@ -193,8 +193,8 @@ Pile run_pile_on_slab(int sparse_blocks_after, int steps, int sparse_block_memor
   WorldSettings settings;
   settings.fracture = true;
   settings.self_collision = true;
-  settings.contact_sparse_blocks_after = sparse_blocks_after;
-  settings.contact_sparse_block_memory = sparse_block_memory;
+  settings.contacts.sparse_blocks_after = sparse_blocks_after;
+  settings.contacts.sparse_block_memory = sparse_block_memory;
   World world({base, pile}, environment, {}, settings);
   Pile result;
   for (int i = 0; i < steps; ++i) {
@@ -230,7 +230,7 @@ TEST(ContactResponse, ALargeFragmentInAPileGetsASparseBlockThatShortensTheSolves
 }
 
 // Once a response's solve ran long, the next substeps' responses make the sparse blocks
-// before their first solve (WorldSettings::contact_sparse_block_memory): forgetting, each
+// before their first solve (ContactSettings::sparse_block_memory): forgetting, each
 // response ran its first solve long again on the body's own preconditioner. With the
 // blocks after 15 iterations, this pile took 1,967 CG iterations remembering and 3,222
 // forgetting (portable build: 1,982 and 3,071). At 40, the default, it never runs long.

@@ -85,12 +85,12 @@ TEST(EnergyBudget, ElasticContactsOnAPileOfFragmentsAddNoEnergy) {
 // within the same bound and no deeper: the 5.6 mm it sinks either way are the blocks'.
 // Since its large fragment's sparse block keeps one factor per response (session 32),
 // 232 against 244: of the 44 second answers, 12 are saved (17 of 58 before).
-// The pile is the augmented Lagrangian's (contact_sweeps 0): its debris would otherwise
+// The pile is the augmented Lagrangian's (sequential_impulse_sweeps 0): its debris would otherwise
 // be answered by sequential impulses, which never run long.
 TEST(EnergyBudget, InAPileAfterAFutileRestitutionTheNextSubstepAnswersInelasticallyFirst) {
   testing::SceneParts as_pile = elastic_breaking_bar(true);
-  as_pile.settings.contact_sparse_blocks_after = 0;  // every response "runs long"
-  as_pile.settings.contact_sweeps = 0;
+  as_pile.settings.contacts.sparse_blocks_after = 0;  // every response "runs long"
+  as_pile.settings.contacts.sequential_impulse_sweeps = 0;
   testing::SceneParts as_pile_in_order = as_pile;
   as_pile_in_order.settings.inelastic_first_in_piles = false;
   const Peak bar = run(elastic_breaking_bar(true), 200);

@@ -27,18 +27,16 @@ ContactMaterial combine(const ContactMaterial& a, const ContactMaterial& b) {
 
 /// The required normal relative velocity of a contact (Box2D's speculative contacts):
 /// it may close its start-of-step gap during the step but not cross it, vₙ ≥ −gap / h.
-/// An overlap left from earlier steps is pushed out at kPushOut of its depth per step,
-/// but no faster than kMaxPushOutSpeed: the push-out is a real velocity that stays after
-/// the overlap is gone, so uncapped it would grow as 1/h (a 6 mm overlap at h = 1e-5 s
-/// threw fragments apart at 120 m/s). Box2D caps it the same way
-/// (contactPushMaxVelocity). Restitution applies only above a resting speed, so resting
-/// contact does not jitter. Returns the target without restitution and with it.
+/// An overlap left from earlier steps is pushed out at a share of its depth per step, no
+/// faster than a cap (ContactSettings::push_out_share, max_push_out_speed). Restitution
+/// applies only above a resting speed, so resting contact does not jitter. Returns the
+/// target without restitution and with it.
 std::pair<double, double> contact_targets(const Contact& c, double approach, const CollisionSettings& settings) {
-  constexpr double kPushOut = 0.2;
-  constexpr double kMaxPushOutSpeed = 1.0;  // [m/s]
   const double h = settings.dt;
   const double resting_speed = 2.0 * settings.gravity.norm() * h;
-  const double speculative = c.gap >= 0.0 ? -c.gap / h : std::min(-kPushOut * c.gap / h, kMaxPushOutSpeed);
+  const double speculative = c.gap >= 0.0 ? -c.gap / h
+                                          : std::min(-settings.contacts.push_out_share * c.gap / h,
+                                                     settings.contacts.max_push_out_speed);
   const bool impact = approach < -resting_speed && approach < speculative;
   return {speculative, impact ? std::max(speculative, -c.restitution * approach) : speculative};
 }
@@ -385,11 +383,10 @@ ContactCounts StepContacts::respond(double restitution_share, int iterations) {
   }
   m_answered = true;
   ContactResponseSettings response;
+  response.contacts = m_settings.contacts;
+  if (iterations > 0) response.contacts.iterations = iterations;
   response.dt = h;
-  response.iterations = iterations > 0 ? iterations : m_settings.iterations;
-  response.sparse_blocks_after = m_settings.sparse_blocks_after;
   response.sparse_blocks_from_start = m_settings.sparse_blocks_from_start;
-  response.sequential_impulse_sweeps = m_settings.sequential_impulse_sweeps;
   response.reference_speed = m_settings.gravity.norm() * h;
   const ContactResponseReport outcome = respond_to_contacts(m_bodies, m_projectiles, m_constraints, response);
   ContactCounts counts = m_counts;

@@ -32,6 +32,7 @@
 
 #include "player/sim/contacts/broad_phase.h"
 #include "player/sim/contacts/contact.h"
+#include "player/sim/contacts/contact_settings.h"
 #include "player/sim/contacts/sleeping.h"
 #include "player/sim/contacts/split_overlaps.h"
 #include "player/sim/environment.h"
@@ -44,10 +45,8 @@ struct CollisionSettings {
   double dt = 1.0 / 240.0;
   Vec3 gravity = Vec3(0, 0, -9.81);  ///< sets the resting speed (no restitution below 2 |g| h)
   bool self_collision = false;       ///< between fragments and between bodies
-  int iterations = 8;                ///< augmented-Lagrangian iterations of the response, at most
-  int sparse_blocks_after = 40;      ///< ContactResponseSettings::sparse_blocks_after
+  ContactSettings contacts;          ///< the targets' and the response's tuning values
   bool sparse_blocks_from_start = false;  ///< ContactResponseSettings::sparse_blocks_from_start
-  int sequential_impulse_sweeps = 16;     ///< ContactResponseSettings::sequential_impulse_sweeps
   ContactImpulses* impulses = nullptr;  ///< in: last step's impulses (warm start); out: this step's
 };
 

@@ -58,7 +58,7 @@ struct ContactConstraint {
   double impulse = 0;           ///< in: a guess (the last step's); out: the normal impulse it carried [N s]
   /// [m] where the two sides touch: a sphere's radius against an obstacle, the radii
   /// summed between two spheres (less for a pair a split left overlapping); 0 for points.
-  /// Bounds what the contact may be left missing (ContactResponseSettings::reach_share).
+  /// Bounds what the contact may be left missing (ContactSettings::reach_share).
   double reach = 0;
 };
 

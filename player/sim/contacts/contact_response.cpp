@@ -17,10 +17,6 @@ using contact_detail::JointSystem;
 using contact_detail::Row;
 using contact_detail::tangential_part;
 
-/// Sliding slower than this counts as sticking: the friction damping is capped at
-/// μ λ / kStickSpeed, and in any case at kFrictionPenaltyRatio κ, for conditioning.
-constexpr double kStickSpeed = 1e-3;  // [m/s]
-constexpr double kFrictionPenaltyRatio = 4.0;
 
 /// One outer iteration's problem, for fixed multipliers λ and friction damping η:
 ///   minimise φ(δ) = ½ δᵀ A_η δ − f_ηᵀ δ + Σ_k max(0, λ_k + κ_k s_k(δ))² / (2 κ_k),
@@ -52,8 +48,8 @@ class AugmentedLagrangian {
       row.eta = 0.0;
       if (row.friction > 0.0 && row.lambda > 0.0) {
         const double sliding = tangential_part(row, row.free_velocity + m_relative[k]).norm();
-        row.eta = std::min(row.friction * row.lambda / std::max(sliding, kStickSpeed),
-                           kFrictionPenaltyRatio * row.kappa);
+        row.eta = std::min(row.friction * row.lambda / std::max(sliding, m_settings.contacts.stick_speed),
+                           m_settings.contacts.friction_penalty_ratio * row.kappa);
       }
       row.scatter(-row.eta * tangential_part(row, row.free_velocity), m_pull);
     }
@@ -129,8 +125,8 @@ class AugmentedLagrangian {
     return conjugate_gradient([&](const Eigen::VectorXd& in, Eigen::VectorXd& out) { m_system.multiply(in, out); },
                               rhs, x,
                               [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { m_system.precondition(r, z); },
-                              m_settings.tolerance, m_settings.max_cg_iterations,
-                              m_settings.inner_reduction)
+                              m_settings.contacts.tolerance, m_settings.contacts.max_cg_iterations,
+                              m_settings.contacts.inner_reduction)
         .iterations;
   }
 
@@ -205,8 +201,8 @@ void write_impulses(const JointSystem& system, std::span<ContactConstraint> cont
 std::vector<double> allowed_misses(const std::vector<Row>& rows, const ContactResponseSettings& settings) {
   std::vector<double> allowed(rows.size());
   for (std::size_t k = 0; k < rows.size(); ++k) {
-    allowed[k] = settings.relative_violation * std::max(std::abs(rows[k].required), settings.reference_speed);
-    if (rows[k].reach > 0.0) allowed[k] = std::min(allowed[k], settings.reach_share * rows[k].reach / settings.dt);
+    allowed[k] = settings.contacts.relative_violation * std::max(std::abs(rows[k].required), settings.reference_speed);
+    if (rows[k].reach > 0.0) allowed[k] = std::min(allowed[k], settings.contacts.reach_share * rows[k].reach / settings.dt);
   }
   return allowed;
 }
@@ -218,14 +214,14 @@ void answer_by_lagrangian(JointSystem& system, const ContactResponseSettings& se
   const bool any_friction = std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.friction > 0.0; });
   system.set_penalties();
   AugmentedLagrangian solver(system, settings);
-  const int max_outer = std::max(settings.iterations, any_friction ? 2 : 1);
+  const int max_outer = std::max(settings.contacts.iterations, any_friction ? 2 : 1);
   if (settings.sparse_blocks_from_start) system.use_sparse_blocks();
   double last_violation = 0.0;
   for (int outer = 0; outer < max_outer; ++outer) {
     solver.set_friction();
     const int iterations = solver.step();
     report.cg_iterations += iterations;
-    if (iterations > settings.sparse_blocks_after) {
+    if (iterations > settings.contacts.sparse_blocks_after) {
       report.ran_long = true;
       system.use_sparse_blocks();
     }
@@ -256,13 +252,13 @@ void answer_debris(JointSystem& system, const ContactResponseSettings& settings,
   std::vector<double> tolerance(allowed), acceptable(allowed);
   for (std::size_t k = 0; k < rows.size(); ++k) {
     if (rows[k].reach <= 0.0) continue;
-    acceptable[k] = settings.sequential_impulse_reach_share * rows[k].reach / settings.dt;
+    acceptable[k] = settings.contacts.sequential_impulse_reach_share * rows[k].reach / settings.dt;
     tolerance[k] = std::min(allowed[k], acceptable[k]);
   }
   std::vector<double> last_steps(rows.size());
   for (std::size_t k = 0; k < rows.size(); ++k) last_steps[k] = rows[k].lambda;
   const contact_detail::SequentialImpulsesAnswer answer =
-      contact_detail::solve_by_sequential_impulses(system, tolerance, acceptable, settings.sequential_impulse_sweeps);
+      contact_detail::solve_by_sequential_impulses(system, tolerance, acceptable, settings.contacts.sequential_impulse_sweeps);
   report.sweeps += answer.sweeps;
   if (answer.acceptable) {
     report.largest_violation = std::max(report.largest_violation, answer.largest_violation);
@@ -321,9 +317,9 @@ ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::
                                           std::span<ContactConstraint> contacts,
                                           const ContactResponseSettings& settings) {
   ContactResponseReport report;
-  JointSystem system(bodies, projectiles, contacts);
+  JointSystem system(bodies, projectiles, contacts, settings.contacts);
   if (system.rows().empty()) return report;
-  if (settings.sequential_impulse_sweeps <= 0 || !touches_dense_blocks(system)) {
+  if (settings.contacts.sequential_impulse_sweeps <= 0 || !touches_dense_blocks(system)) {
     answer_by_lagrangian(system, settings, report);
     write_impulses(system, contacts);
     return report;
@@ -344,7 +340,8 @@ ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::
   // read the velocities before either answer moves them.
   std::vector<ContactConstraint> debris_part, rest_part;
   for (std::size_t k = 0; k < contacts.size(); ++k) (debris[k] ? debris_part : rest_part).push_back(contacts[k]);
-  JointSystem debris_system(bodies, projectiles, debris_part), rest_system(bodies, projectiles, rest_part);
+  JointSystem debris_system(bodies, projectiles, debris_part, settings.contacts),
+      rest_system(bodies, projectiles, rest_part, settings.contacts);
   answer_debris(debris_system, settings, report);
   answer_by_lagrangian(rest_system, settings, report);
   write_impulses(debris_system, debris_part);

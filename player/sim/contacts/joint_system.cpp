@@ -7,39 +7,10 @@
 
 namespace fissure::sim::contact_detail {
 
-namespace {
-
-/// κ_k = kPenaltyRatio / Σᵢ bᵢ² / (nᵀ Aᵢᵢ n), the point's inverse mass as the system's
-/// diagonal sees it. Not the lumped mass: where h²K dominates (light surface nodes, stiff
-/// materials) a point answers an impulse 50× less than its mass says, and κ from the
-/// mass took 8 iterations to meet half of a single contact's target. For one node
-/// (A⁻¹)ᵢᵢ ≥ 1 / Aᵢᵢ, so each iteration leaves at most 1 / (1 + kPenaltyRatio) of its
-/// shortfall (below the cap that follows). Larger ratios do fewer outer iterations but make the inner solves harder,
-/// which their preconditioners (the bodies' own) do not see. Measured on the bunny scene
-/// (480 steps, inner tolerance 1e-3): ratio 1 took 26 CG iterations per response and 2
-/// took 36 (4 and 16 took 43 and 57 before a fix to the stopping rule); penetration did
-/// not improve above 1.
-constexpr double kPenaltyRatio = 1.0;
-/// ... but the diagonal counts for at most this many times the lumped mass: κ far above
-/// the mass makes any residual the inner solve leaves in a body's rigid motion (where A
-/// is only M) a velocity error Aᵢᵢ / mᵢ times larger. Uncapped, E = 1e11 at dt = 0.1
-/// (Aᵢᵢ / mᵢ ~ 1e8) ran away to 1e35 J in the stability grid. With the cap at 1, 4 or 16
-/// the grid holds; the bunny scene's render-vertex penetration is 2.4, 1.5 and 0.8 mm.
-constexpr double kMaxStiffnessShare = 16.0;
-
-/// A fragment with at most this many free nodes gets a dense block of the response's
-/// operator, its contacts' terms included, as its preconditioner (BlockJacobi); larger
-/// ones keep their body's own. A 64-node block is 192×192, about 2.4 Mflop to factor
-/// once per outer iteration. At 32, the bunny at toughness 0 kept one fragment of 34–52
-/// nodes above it for most of the run, and with it the whole body's own preconditioner:
-/// the response took 3× the CG iterations of a run where no fragment was above it.
-constexpr Index kDenseFragmentNodes = 64;
-
-}  // namespace
 
 JointSystem::JointSystem(std::span<CollisionBody> bodies, std::span<Projectile> projectiles,
-            std::span<const ContactConstraint> contacts)
-    : m_bodies(bodies), m_projectiles(projectiles), m_contacts(contacts) {
+                         std::span<const ContactConstraint> contacts, const ContactSettings& settings)
+    : m_bodies(bodies), m_projectiles(projectiles), m_contacts(contacts), m_settings(settings) {
   m_body_offset.assign(bodies.size(), -1);
   m_projectile_offset.assign(projectiles.size(), -1);
   const auto touch = [&](const ContactSide& s) {
@@ -323,7 +294,7 @@ void JointSystem::add_fragment_groups(std::size_t bi, std::vector<std::vector<Ei
   for (NodeIndex node = 0; node < body.node_count(); ++node) {
     const Index r = body.system_row(node), f = m_node_fragment[node];
     if (r == kInvalidIndex) continue;
-    const bool dense = free_nodes[f] <= kDenseFragmentNodes;
+    const bool dense = free_nodes[f] <= m_settings.dense_fragment_nodes;
     if (!dense) {
       // The body's own preconditioner, until a response's solves show they need the
       // contacts on it (use_sparse_blocks).
@@ -450,7 +421,7 @@ double JointSystem::penalty_inverse_mass(const ContactSide& s, const Vec3& norma
     if (body.system_row(node) == kInvalidIndex || s.weight[i] == 0.0) continue;
     const double lumped = body.system_mass_scale() * body.node_masses()[node];
     const double diagonal = normal.dot(body.system_diagonal_block(node) * normal);
-    inverse_mass += s.weight[i] * s.weight[i] / std::clamp(diagonal, lumped, kMaxStiffnessShare * lumped);
+    inverse_mass += s.weight[i] * s.weight[i] / std::clamp(diagonal, lumped, m_settings.max_stiffness_share * lumped);
   }
   return inverse_mass;
 }
@@ -463,7 +434,7 @@ void JointSystem::set_penalties() {
     if (r == kInvalidIndex) continue;
     const double inverse_mass = penalty_inverse_mass(m_contacts[k].a, m_rows[r].normal) +
                                 penalty_inverse_mass(m_contacts[k].b, m_rows[r].normal);
-    m_rows[r].kappa = kPenaltyRatio / inverse_mass;
+    m_rows[r].kappa = m_settings.penalty_ratio / inverse_mass;
   }
   m_blocks.set_outer_rows(m_outer_rows);
 }

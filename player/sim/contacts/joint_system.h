@@ -14,6 +14,7 @@
 
 #include "player/sim/block_jacobi.h"
 #include "player/sim/contacts/contact.h"
+#include "player/sim/contacts/contact_settings.h"
 #include "player/sim/sparse_blocks.h"
 
 namespace fissure::sim::contact_detail {
@@ -73,8 +74,9 @@ inline Vec3 tangential_part(const Row& row, const Vec3& v) { return v - row.norm
 
 class JointSystem {
  public:
+  /// `settings` must outlive this.
   JointSystem(std::span<CollisionBody> bodies, std::span<Projectile> projectiles,
-              std::span<const ContactConstraint> contacts);
+              std::span<const ContactConstraint> contacts, const ContactSettings& settings);
 
   [[nodiscard]] Eigen::Index size() const { return m_size; }
 
@@ -142,9 +144,10 @@ class JointSystem {
   /// the number of fragments.
   Index map_node_fragments(const CollisionBody& b);
 
-  /// One dense block per fragment with at most kDenseFragmentNodes free nodes that a
-  /// contact touches (a whole small body counts as one fragment) and per projectile;
-  /// their base values: the mass terms and the fragment's tets' system blocks.
+  /// One dense block per fragment with at most ContactSettings::dense_fragment_nodes
+  /// free nodes that a contact touches (a whole small body counts as one fragment) and
+  /// per projectile; their base values: the mass terms and the fragment's tets' system
+  /// blocks.
   void build_blocks();
 
   /// The nodes the rows touch, and each one's entries in the rows in row order
@@ -181,8 +184,9 @@ class JointSystem {
 
   /// Adds a side's entries to the row; returns whether the side can move.
   bool add_side(const ContactSide& s, double sign, Row& row) const;
-  /// Σᵢ wᵢ² / (nᵀ Aᵢᵢ n) over the side's free nodes, Aᵢᵢ clamped to [1, kMaxStiffnessShare]
-  /// times the lumped mass: the point's inverse mass as the system's diagonal sees it.
+  /// Σᵢ wᵢ² / (nᵀ Aᵢᵢ n) over the side's free nodes, Aᵢᵢ clamped to
+  /// [1, ContactSettings::max_stiffness_share] times the lumped mass: the point's inverse
+  /// mass as the system's diagonal sees it.
   [[nodiscard]] double penalty_inverse_mass(const ContactSide& s, const Vec3& normal) const;
 
   [[nodiscard]] Vec3 velocity(const ContactSide& s) const;
@@ -190,6 +194,7 @@ class JointSystem {
   std::span<CollisionBody> m_bodies;
   std::span<Projectile> m_projectiles;
   std::span<const ContactConstraint> m_contacts;
+  const ContactSettings& m_settings;
   bool m_penalties_set = false;
   std::vector<Eigen::Index> m_body_offset, m_projectile_offset;
   Eigen::Index m_size = 0;

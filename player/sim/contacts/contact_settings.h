@@ -1,0 +1,119 @@
+#pragma once
+/// Every tuning value of the contacts, in one place (as Jolt's PhysicsSettings gathers
+/// its solver's): what each one trades, and the figure that chose its default. A scene
+/// sets some of them in its [solver] table (formats/scene.h: contact_iterations,
+/// contact_sweeps); the rest stay at these defaults outside studies and tests. The
+/// records in docs/decisions/ hold the measurements behind each.
+
+#include "common/types.h"
+
+namespace fissure::sim {
+
+struct ContactSettings {
+  // --- Targets (collision.cpp, contact_targets) ---------------------------------------
+  /// An overlap left from earlier steps is pushed out at this share of its depth per
+  /// step...
+  double push_out_share = 0.2;
+  /// ... but no faster than this [m/s]: the push-out is a real velocity that stays after
+  /// the overlap is gone, so uncapped it would grow as 1/h (a 6 mm overlap at h = 1e-5 s
+  /// threw fragments apart at 120 m/s). Box2D caps it the same way
+  /// (contactPushMaxVelocity).
+  double max_push_out_speed = 1.0;
+
+  // --- The augmented Lagrangian (contact_response.cpp) --------------------------------
+  /// Outer iterations at most (docs/decisions/0034-contact-iterations-default-8.md).
+  int iterations = 8;
+  /// The iterations stop once every contact misses its target by at most this share of
+  /// its own required velocity change, or of the reference speed (about what one step of
+  /// gravity adds, |g| h: what resting contacts ask for) if that is larger. Per contact,
+  /// not of the largest: a hit asking 12 m/s of one contact must not excuse millimetres
+  /// of sinking at the others. What a contact still misses becomes overlap, which the
+  /// push-out of the next steps removes (docs/decisions/0021-response-stopping-rule.md).
+  double relative_violation = 0.1;
+  /// And never by more than this share of its reach (ContactConstraint::reach) per step,
+  /// reach_share × reach / h: what a contact misses becomes overlap, and a share of a
+  /// speed is a length that grows with h² (|g| h² / 10: 0.25 m of a resting bunny's
+  /// spheres sunk in one step of 0.5 s, 10 m of a bar under 1e4 m/s² in one of 0.1 s).
+  /// At the scene's steps it rarely binds (a 3 mm sphere at 1/240 s: 0.7 m/s).
+  double reach_share = 1.0;
+  /// Conjugate gradients' relative residual. Loose on purpose: the outer iterations
+  /// correct what an inner solve leaves, and the momentum each body gains is made exact
+  /// at the end anyway. On the bunny scene 1e-6 took 2.2× the time of 1e-3 for the same
+  /// energy and penetration.
+  double tolerance = 1e-3;
+  /// Each outer iteration's solve also takes its residual to at most this share of its
+  /// start (conjugate_gradient's residual_reduction). Warm-started from the last δ, the
+  /// start is often within `tolerance` of the whole right-hand side already, which heavy
+  /// rows dominate: the solve then did nothing, the outer iterations only moved λ, and a
+  /// light projectile's rows (0.1 kg against 167 kg fragments) were never solved.
+  double inner_reduction = 0.1;
+  int max_cg_iterations = 500;  ///< per outer iteration
+  /// κ_k = penalty_ratio / Σᵢ bᵢ² / (nᵀ Aᵢᵢ n), the point's inverse mass as the system's
+  /// diagonal sees it. Not the lumped mass: where h²K dominates (light surface nodes,
+  /// stiff materials) a point answers an impulse 50× less than its mass says, and κ from
+  /// the mass took 8 iterations to meet half of a single contact's target. For one node
+  /// (A⁻¹)ᵢᵢ ≥ 1 / Aᵢᵢ, so each iteration leaves at most 1 / (1 + penalty_ratio) of its
+  /// shortfall (below the cap that follows). Larger ratios do fewer outer iterations but
+  /// make the inner solves harder, which their preconditioners (the bodies' own) do not
+  /// see. Measured on the bunny scene (480 steps, inner tolerance 1e-3): ratio 1 took 26
+  /// CG iterations per response and 2 took 36 (4 and 16 took 43 and 57 before a fix to
+  /// the stopping rule); penetration did not improve above 1. A preconditioner that sees
+  /// the contacts did not pay for itself either
+  /// (docs/decisions/0020-contacts-inside-the-implicit-step.md).
+  double penalty_ratio = 1.0;
+  /// ... but the diagonal counts for at most this many times the lumped mass: κ far above
+  /// the mass makes any residual the inner solve leaves in a body's rigid motion (where A
+  /// is only M) a velocity error Aᵢᵢ / mᵢ times larger. Uncapped, E = 1e11 at dt = 0.1
+  /// (Aᵢᵢ / mᵢ ~ 1e8) ran away to 1e35 J in the stability grid. With the cap at 1, 4 or 16
+  /// the grid holds; the bunny scene's render-vertex penetration is 2.4, 1.5 and 0.8 mm.
+  double max_stiffness_share = 16.0;
+  /// Sliding slower than this [m/s] counts as sticking: the lagged friction's damping is
+  /// capped at μ λ / stick_speed, ...
+  double stick_speed = 1e-3;
+  /// ... and in any case at this many times κ, for conditioning.
+  double friction_penalty_ratio = 4.0;
+
+  // --- Preconditioning (joint_system.cpp) ---------------------------------------------
+  /// A fragment with at most this many free nodes gets a dense block of the response's
+  /// operator, its contacts' terms included, as its preconditioner (BlockJacobi); larger
+  /// ones keep their body's own. A 64-node block is 192×192, about 2.4 Mflop to factor
+  /// once per outer iteration. At 32, the bunny at toughness 0 kept one fragment of 34–52
+  /// nodes above it for most of the run, and with it the whole body's own preconditioner:
+  /// the response took 3× the CG iterations of a run where no fragment was above it.
+  Index dense_fragment_nodes = 64;
+  /// An outer iteration whose solve took more conjugate-gradient iterations than this
+  /// makes the rest of the response precondition each large fragment that a contact
+  /// touches with a sparse block of its own, its contacts' terms included, in place of
+  /// its body's own preconditioner, which cannot see them. The blocks cost sparse
+  /// factorizations (per outer iteration; per response for a block over
+  /// SparseBlocks::kKeptFactorNodes nodes), which pay only where the solves without them
+  /// are long: on the bunny at toughness 0.2, while a fragment of hundreds of nodes lay
+  /// among a hundred small ones, the response took 746 conjugate-gradient iterations per
+  /// step without them and 263 with them; ordinary solves take 2-20 and never make them.
+  /// A large value: never, for comparison.
+  int sparse_blocks_after = 40;
+  /// After a substep whose response ran long, this many more substeps make the sparse
+  /// blocks before their first solve (the world is "in a pile", World::in_pile): in a
+  /// pile, every response's first solve ran long again on its body's own preconditioner
+  /// before the blocks took over (most of the response's conjugate-gradient iterations,
+  /// and each of them a solve over the whole body). 0: never, for comparison.
+  int sparse_block_memory = 16;
+
+  // --- Debris (sequential_impulses.cpp) -----------------------------------------------
+  /// The contacts of islands that read only small fragments and projectiles (a
+  /// shattered body's debris) are answered by sequential impulses, at most this many
+  /// sweeps; the rest, and all of them at 0, by the augmented Lagrangian. On the bunny at
+  /// toughness 0, 16 sweeps made the step 0.57× as long with the same sphere
+  /// penetration; 8 left more islands to the fallback below.
+  int sequential_impulse_sweeps = 16;
+  /// The sweeps' tolerance per contact is the augmented Lagrangian's, but never more
+  /// than this share of its reach per step; at the cap their answer is kept if no
+  /// contact falls short by more than that, else the augmented Lagrangian answers the
+  /// island from the last step's impulses. On the bunny at toughness 0 at 16 sweeps, 0.1
+  /// left so many islands to the fallback that the step took 37.5 ms against 29.4 at
+  /// 0.25 (51.3 with no sweeps), at the same penetration
+  /// (docs/decisions/0072-sequential-impulses-for-debris.md).
+  double sequential_impulse_reach_share = 0.25;
+};
+
+}  // namespace fissure::sim
