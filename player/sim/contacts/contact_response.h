@@ -27,11 +27,11 @@
 /// The preconditioner is block Jacobi: each small fragment's (and projectile's) dense
 /// block of that operator, its contacts' terms included, solved exactly; each larger
 /// fragment keeps its body's own preconditioner, which cannot see the contacts, until a
-/// solve runs long: then each larger fragment that a contact touches gets a sparse block
-/// of its own likewise (sparse_blocks.h, ContactSettings::sparse_blocks_after), and no body's own
-/// preconditioner is used. A shattered body is hundreds of small fragments in a pile,
-/// coupled mostly through their contacts: there the blocks cut the response's CG
-/// iterations severalfold (docs/decisions/0024-block-jacobi-with-contacts.md).
+/// solve runs long (ContactSettings::sparse_blocks_after): then each larger fragment
+/// that a contact touches gets a sparse block of its own likewise (sparse_blocks.h), and
+/// no body's own preconditioner is used. A shattered body is hundreds of small
+/// fragments in a pile, coupled mostly through their contacts: there the blocks cut the
+/// response's CG iterations severalfold (docs/decisions/0024-block-jacobi-with-contacts.md).
 ///
 /// Friction is Coulomb, lagged (as in IPC, Li et al. 2020): a tangential damping
 /// η_k = μ λ_k / max(|v_t|, ε) from the previous outer iteration, so its force is
