@@ -7,7 +7,6 @@
 
 namespace fissure::sim::contact_detail {
 
-
 JointSystem::JointSystem(std::span<CollisionBody> bodies, std::span<Projectile> projectiles,
                          std::span<const ContactConstraint> contacts, const ContactSettings& settings)
     : m_bodies(bodies), m_projectiles(projectiles), m_contacts(contacts), m_settings(settings) {
