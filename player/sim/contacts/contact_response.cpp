@@ -17,7 +17,6 @@ using contact_detail::JointSystem;
 using contact_detail::Row;
 using contact_detail::tangential_part;
 
-
 /// One outer iteration's problem, for fixed multipliers λ and friction damping η:
 ///   minimise φ(δ) = ½ δᵀ A_η δ − f_ηᵀ δ + Σ_k max(0, λ_k + κ_k s_k(δ))² / (2 κ_k),
 /// with s_k(δ) = r_k − n_k · G_k δ the contact's shortfall, A_η = 𝒜 plus the friction
