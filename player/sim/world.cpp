@@ -328,7 +328,7 @@ void World::collide(double dt, StepReport& report) {
   cs.gravity = m_settings.step.gravity;
   cs.self_collision = m_settings.self_collision;
   cs.contacts = m_settings.contacts;
-  cs.sparse_blocks_from_start = in_pile();
+  cs.sparse_blocks_from_start = m_pile.sparse_blocks_from_start();
   cs.impulses = &m_contact_impulses;
   // With the last substep's impulses, before the contacts are found (collision.h).
   resist_rolling(collision_bodies, m_environment, m_contact_impulses);
@@ -350,10 +350,11 @@ void World::collide(double dt, StepReport& report) {
   // they bought a pile nothing but time: in 259 of 326 of a pile's responses the last 8
   // each left up to ~20 contacts short by up to 3 cm/s. The light bar under 10^4 m/s^2
   // that sank twice as deep when every substep answered this way, session 28, is no
-  // pile. docs/decisions/0026-inelastic-first-in-piles.md.) Outside a pile (no
-  // response ran long lately) the wasted answer is cheap, and the order stays:
-  // restitution first.
-  const bool inelastic_first = m_settings.inelastic_first_in_piles && restitutes && m_restitution_futile && in_pile();
+  // pile. docs/decisions/0026-inelastic-first-in-piles.md.) Debris whose sequential
+  // impulses sweep to their cap is a pile too (pile.h): at toughness 0 it made the step
+  // 0.84× as long. Outside a pile (no response ran long or swept to its cap lately)
+  // the wasted answer is cheap, and the order stays: restitution first.
+  const bool inelastic_first = m_settings.inelastic_first_in_piles && restitutes && m_restitution_futile && m_pile.in_pile();
   const ContactCounts counts = contacts.respond(inelastic_first ? 0.0 : 1.0);
   report.contacts.contacts += counts.contacts;
   report.contacts.swept += counts.swept;
@@ -372,8 +373,7 @@ void World::collide(double dt, StepReport& report) {
       m_restitution_futile = false;
     }
   }
-  m_pile_substeps_left = counts.ran_long ? m_settings.contacts.sparse_block_memory
-                                         : std::max(m_pile_substeps_left - 1, 0);
+  m_pile.note(counts, m_settings.contacts.sparse_block_memory);
   report.collisions += seconds_since(start);
 }
 

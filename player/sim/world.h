@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "player/sim/contacts/collision.h"
+#include "player/sim/contacts/pile.h"
 #include "player/sim/fracture.h"
 #include "player/sim/implicit_integrator.h"
 #include "player/sim/contacts/stand_in_spheres.h"
@@ -62,10 +63,11 @@ struct WorldSettings {
   /// Restitution gives back at most what a substep would otherwise lose (World::collide);
   /// off: Newton's rule on every contact alone, for comparison.
   bool restitution_within_budget = true;
-  /// In a pile (a contact response ran long within contacts.sparse_block_memory
-  /// substeps), after a substep whose inelastic answer ended above its budget anyway, the
-  /// next substep answers inelastically first and restitution only if there is room
-  /// (World::collide); off: restitution first always, for comparison.
+  /// In a pile (pile.h: a contact response ran long, or swept its debris to the cap,
+  /// within contacts.sparse_block_memory substeps), after a substep whose inelastic
+  /// answer ended above its budget anyway, the next substep answers inelastically first
+  /// and restitution only if there is room (World::collide); off: restitution first
+  /// always, for comparison.
   bool inelastic_first_in_piles = true;
   /// A substep that ends above its energy budget (its start's energy plus what was put in)
   /// is solved again exactly (ImplicitIntegrator::solve_exactly) where its linear solve
@@ -307,11 +309,6 @@ class World {
   StepStatus solve_bodies(const StepSettings& step, StepReport& report);
   void launch_and_move_projectiles(double dt);
   void collide(double dt, StepReport& report);
-  /// In a pile: a contact response ran long within the last contacts.sparse_block_memory
-  /// substeps (many fragments coupled mostly through their contacts). There the response
-  /// makes its sparse blocks before its first solve, and after a futile restitution the
-  /// inelastic answer comes first (collide()).
-  [[nodiscard]] bool in_pile() const { return m_pile_substeps_left > 0; }
   /// What sleeping sees of the bodies.
   [[nodiscard]] std::vector<SleepBody> sleep_bodies();
   /// What the contact phase may leave: the energy at the substep's start plus what was
@@ -393,9 +390,7 @@ class World {
   double m_linear_end_put_in = 0;            ///< and energy_put_in() after it
   std::vector<Matrix3Xd> m_previous_positions;  ///< per body, at the start of the last whole step
   ContactImpulses m_contact_impulses;  ///< the last step's, to warm-start the next
-  /// Substeps the world still counts as in a pile (in_pile()): set to
-  /// contacts.sparse_block_memory by a response that ran long, one less each substep after.
-  int m_pile_substeps_left = 0;
+  Pile m_pile;  ///< whether the last substeps' responses met a pile (pile.h)
   /// The last substep that restituted ended above its budget even inelastically: the
   /// next answers inelastically first (collide()).
   bool m_restitution_futile = false;

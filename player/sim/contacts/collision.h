@@ -62,6 +62,7 @@ struct ContactCounts {
   std::size_t responses = 0;     ///< contact responses solved (World answers a substep twice to limit restitution)
   std::size_t restituting = 0;   ///< contacts whose target restitution raised (impacts above the resting speed)
   bool ran_long = false;         ///< the response's ContactResponseReport::ran_long
+  bool swept_to_cap = false;     ///< the response's ContactResponseReport::swept_to_cap
 };
 
 /// The contacts of one step, found once (detection and targets), then answered by the

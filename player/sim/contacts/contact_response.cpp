@@ -259,6 +259,7 @@ void answer_debris(JointSystem& system, const ContactResponseSettings& settings,
   const contact_detail::SequentialImpulsesAnswer answer =
       contact_detail::solve_by_sequential_impulses(system, tolerance, acceptable, settings.contacts.sequential_impulse_sweeps);
   report.sweeps += answer.sweeps;
+  report.swept_to_cap = report.swept_to_cap || !answer.met;
   if (answer.acceptable) {
     report.largest_violation = std::max(report.largest_violation, answer.largest_violation);
     system.apply(answer.delta, answer.forces, settings.dt);

@@ -71,6 +71,8 @@ struct ContactResponseReport {
   /// A solve took more than ContactSettings::sparse_blocks_after iterations.
   bool ran_long = false;
   int sweeps = 0;                  ///< sequential-impulse sweeps, where they answered (then no CG)
+  /// The sequential impulses swept to their cap (ContactSettings::sequential_impulse_sweeps).
+  bool swept_to_cap = false;
 };
 
 /// Corrects the velocities of `bodies` and `projectiles` so the contacts hold, and moves

@@ -93,7 +93,7 @@ struct ContactSettings {
   /// A large value: never, for comparison.
   int sparse_blocks_after = 40;
   /// After a substep whose response ran long, this many more substeps make the sparse
-  /// blocks before their first solve (the world is "in a pile", World::in_pile): in a
+  /// blocks before their first solve (the world is "in a pile", pile.h): in a
   /// pile, every response's first solve ran long again on its body's own preconditioner
   /// before the blocks took over (most of the response's conjugate-gradient iterations,
   /// and each of them a solve over the whole body). 0: never, for comparison.
