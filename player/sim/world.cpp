@@ -93,7 +93,7 @@ World::World(std::vector<BodyDescription> bodies, Environment environment, std::
   for (const Body& b : m_bodies) m_previous_positions.push_back(b.integrator().positions());
   m_deformation.resize(m_bodies.size());
   m_deformation_step.assign(m_bodies.size(), 0);
-  m_start_energy = total_energy();
+  m_energy.start_run(total_energy());
   // The first step's factorizations happen here, at load, not in a step.
   StepSettings first = m_settings.step;
   first.dt /= planned_substeps();
@@ -132,7 +132,7 @@ StepReport World::step() {
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_checkpoint.split_overlaps[bi] = m_bodies[bi].split_overlaps;
   m_checkpoint.sphere_counts.resize(m_bodies.size());
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_checkpoint.sphere_counts[bi] = m_bodies[bi].spheres.size();
-  m_checkpoint.energy_put_in = m_energy_put_in;
+  m_checkpoint.energy_put_in = m_energy.put_in();
   const int substeps = planned_substeps();
   for (int i = 0; i < substeps && report.status.ok(); ++i) {
     report.status = advance(m_settings.step.dt / substeps, report, 0);
@@ -201,7 +201,7 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   }
   ++report.substeps;
   // What the bodies' checkpoint does not hold, to take the substep again as halves.
-  const SubstepStart start{m_projectiles, m_energy_put_in};
+  const SubstepStart start{m_projectiles, m_energy.put_in()};
   const bool resolves = m_settings.exact_when_gaining != ExactResolve::Never;
   if (resolves) save_motion(m_linear_motion);
   launch_and_move_projectiles(dt);
@@ -212,7 +212,7 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   // The exact re-solve measures the substep's energy anyway; without it, only where a
   // halving may follow.
   const double energy = resolves ? solve_exactly_if_gaining(step, report) : may_halve ? total_energy() : 0.0;
-  if (may_halve && energy > substep_energy_limit() && energy > run_energy_limit()) {
+  if (may_halve && energy > substep_energy_limit() && energy > m_energy.run_limit()) {
     // Still above its budget after every repair, and above all the run was given: the
     // substep is too long for what happens in it (WorldSettings::energy_halvings).
     return take_again_as_halves(start, dt, report, depth);
@@ -271,7 +271,7 @@ StepStatus World::solve_bodies(const StepSettings& step, StepReport& report) {
     m_bodies[bi].integrator().save(before[bi]);
     m_start_positions[bi] = m_bodies[bi].integrator().positions();
   }
-  m_substep_start_energy.clear();
+  m_energy.forget_bodies_at_substep_start();
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
     ImplicitIntegrator& body = m_bodies[bi].integrator();
     const int factorizations_before = body.factorizations();
@@ -292,16 +292,16 @@ void World::launch_and_move_projectiles(double dt) {
   // Symplectic Euler, like the bodies; a projectile enters the scene at the step
   // nearest its launch time.
   m_projectile_start.resize(m_projectiles.size());
-  m_substep_put_in = m_energy_put_in;
-  m_substep_projectile_energy = 0.0;
+  double projectile_energy = 0.0;
   for (const Projectile& p : m_projectiles) {
-    if (p.launched) m_substep_projectile_energy += 0.5 * p.mass * p.velocity.squaredNorm() - p.mass * m_settings.step.gravity.dot(p.position);
+    if (p.launched) projectile_energy += 0.5 * p.mass * p.velocity.squaredNorm() - p.mass * m_settings.step.gravity.dot(p.position);
   }
+  m_energy.start_substep(projectile_energy);
   for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
     Projectile& p = m_projectiles[j];
     if (!p.launched && p.launch_time <= m_time + 0.5 * dt) {
       p.launched = true;  // it enters the world with its kinetic and gravity energy
-      m_energy_put_in += 0.5 * p.mass * p.velocity.squaredNorm() - p.mass * m_settings.step.gravity.dot(p.position);
+      m_energy.put_in(0.5 * p.mass * p.velocity.squaredNorm() - p.mass * m_settings.step.gravity.dot(p.position));
     }
     m_projectile_start[j] = p.position;
     if (!p.launched) continue;
@@ -407,7 +407,7 @@ void World::roll_back(const StepReport& report) {
     m_bodies[bi].split_overlaps = m_checkpoint.split_overlaps[bi];
     m_stand_ins[bi].truncate(m_bodies[bi].spheres, m_checkpoint.sphere_counts[bi]);
   }
-  m_energy_put_in = m_checkpoint.energy_put_in;
+  m_energy.restore_put_in(m_checkpoint.energy_put_in);
   m_time = m_checkpoint.time;
 }
 
@@ -482,7 +482,7 @@ void World::set_velocities(Index body, const Matrix3Xd& velocities) {
   ImplicitIntegrator& integrator = m_bodies.at(body).integrator();
   const double before = integrator.kinetic_energy();
   integrator.set_velocities(velocities);
-  m_energy_put_in += integrator.kinetic_energy() - before;
+  m_energy.put_in(integrator.kinetic_energy() - before);
 }
 
 }  // namespace fissure::sim

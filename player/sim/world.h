@@ -13,6 +13,7 @@
 
 #include "player/sim/contacts/collision.h"
 #include "player/sim/contacts/pile.h"
+#include "player/sim/energy_budget.h"
 #include "player/sim/fracture.h"
 #include "player/sim/implicit_integrator.h"
 #include "player/sim/contacts/stand_in_spheres.h"
@@ -266,7 +267,7 @@ class World {
   /// kinetic and gravity energy as it is launched (a scene's or a viewer's), and the
   /// kinetic energy set_velocities changed. The physics may only lose energy, so the
   /// total energy never exceeds its start plus this (issue 16: Diagnostics checks it).
-  [[nodiscard]] double energy_put_in() const { return m_energy_put_in; }
+  [[nodiscard]] double energy_put_in() const { return m_energy.put_in(); }
   [[nodiscard]] Vec3 linear_momentum() const;
   [[nodiscard]] Vec3 angular_momentum() const;    ///< about the origin
   [[nodiscard]] Index fragment_count() const;     ///< summed over bodies
@@ -311,14 +312,12 @@ class World {
   void collide(double dt, StepReport& report);
   /// What sleeping sees of the bodies.
   [[nodiscard]] std::vector<SleepBody> sleep_bodies();
-  /// What the contact phase may leave: the energy at the substep's start plus what was
-  /// put in since [J], and how much of that is rounding.
-  [[nodiscard]] std::pair<double, double> substep_energy_budget() const;
-  /// The most the substep may end with: the budget plus its rounding allowance.
-  [[nodiscard]] double substep_energy_limit() const {
-    const auto [budget, rounding] = substep_energy_budget();
-    return budget + rounding;
-  }
+  /// The most the substep may end with: its start's energy plus what was put in since,
+  /// and rounding [J] (EnergyBudget::substep_limit). Measures the bodies' energy at the
+  /// substep's start on first use: the elastic part is a polar decomposition per tet.
+  [[nodiscard]] double substep_energy_limit();
+  /// The bodies' energy at the substep's start into m_energy, unless it is there.
+  void measure_substep_start();
   /// Answers `contacts` again inelastically and keeps the largest blend of the two
   /// answers within `budget` [J] (the bodies hold the full restitution's answer).
   void keep_restitution_within(StepContacts& contacts, double budget, StepReport& report);
@@ -347,12 +346,6 @@ class World {
   /// Whether a substep of `dt` at halving depth `depth` that ends above its energy
   /// budget is taken again as two halves (WorldSettings::energy_halvings, min_dt).
   [[nodiscard]] bool halves_when_gaining(double dt, int depth) const;
-  /// The most energy the world may hold now: its energy when built plus what was put in
-  /// since, and rounding [J].
-  [[nodiscard]] double run_energy_limit() const;
-  /// Above this a substep is solved again exactly: its energy budget plus
-  /// WorldSettings::exact_gain_share of what the run has dissipated so far [J].
-  [[nodiscard]] double exact_resolve_limit() const;
   /// The solve gained: every body solved exactly, then projectiles and contacts again.
   void resolve_exactly(const StepSettings& step, StepReport& report);
   /// The contacts gained: every body solved exactly with the contacts' impulses held.
@@ -375,11 +368,6 @@ class World {
   double m_time = 0;
   std::vector<Matrix3Xd> m_start_positions;  ///< per body, at the start of the current (sub)step
   std::vector<Vec3> m_projectile_start;      ///< likewise per projectile
-  double m_substep_projectile_energy = 0;    ///< the launched projectiles' energy at the substep's start
-  double m_substep_put_in = 0;               ///< energy_put_in() at the substep's start
-  /// Per body, its energy at the substep's start and that energy's magnitude, once
-  /// computed (substep_energy_budget); cleared by solve_bodies.
-  mutable std::vector<std::pair<double, double>> m_substep_start_energy;
   Motion m_free_motion, m_bounced_motion, m_inelastic_motion, m_blend_motion;  ///< collide()'s scratch
   Motion m_linear_motion;  ///< the bodies at the linear solve's answer, the projectiles before the substep
   std::vector<Matrix3Xd> m_exact_positions;  ///< per body, the exact solve's answer before contacts
@@ -401,8 +389,7 @@ class World {
   Checkpoint m_checkpoint;
   std::vector<ImplicitIntegrator::Checkpoint> m_substep_checkpoint;  ///< solve_bodies' scratch
   std::uint64_t m_steps = 0;
-  double m_energy_put_in = 0;  ///< see energy_put_in()
-  double m_start_energy = 0;   ///< total_energy() when the world was built
+  EnergyBudget m_energy;  ///< what the run and the substep may hold (energy_budget.h)
   mutable std::vector<std::vector<Mat3>> m_deformation;   ///< per body, frame()'s cache
   mutable std::vector<std::uint64_t> m_deformation_step;  ///< per body, the step it is of (+1; 0: none)
 };

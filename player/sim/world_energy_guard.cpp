@@ -13,21 +13,11 @@ StepStatus World::take_again_as_halves(const SubstepStart& start, double dt, Ste
   // The contact warm starts stay as the substep left them: they are only guesses.
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_bodies[bi].integrator().restore(m_substep_checkpoint[bi]);
   m_projectiles = start.projectiles;
-  m_energy_put_in = start.energy_put_in;
+  m_energy.restore_put_in(start.energy_put_in);
   --report.substeps;
   ++report.energy_halvings;
   const StepStatus first = advance(0.5 * dt, report, depth + 1);
   return first.ok() ? advance(0.5 * dt, report, depth + 1) : first;
-}
-
-double World::exact_resolve_limit() const {
-  const double substep = substep_energy_limit();
-  return substep + m_settings.exact_gain_share * std::max(0.0, run_energy_limit() - substep);
-}
-
-double World::run_energy_limit() const {
-  const double given = m_start_energy + m_energy_put_in;
-  return given + 1e-9 * (std::abs(m_start_energy) + std::abs(m_energy_put_in));
 }
 
 bool World::halves_when_gaining(double dt, int depth) const {
@@ -51,14 +41,15 @@ bool World::halves_when_gaining(double dt, int depth) const {
 ///    (docs/decisions/0032-exact-resolve-where-a-substep-gains.md).
 double World::solve_exactly_if_gaining(const StepSettings& step, StepReport& report) {
   const double linear = total_energy();
-  if (linear <= exact_resolve_limit()) return linear;
+  measure_substep_start();
+  if (linear <= m_energy.exact_resolve_limit(m_settings.exact_gain_share)) return linear;
   save_motion(m_linear_end_motion);
   m_linear_end_impulses = m_contact_impulses;
-  m_linear_end_put_in = m_energy_put_in;
+  m_linear_end_put_in = m_energy.put_in();
   // Which part gained: the solve (its answer on arcs, before contacts and projectiles)
   // or the contact response that followed it.
   restore_motion(m_linear_motion);
-  m_energy_put_in = m_substep_put_in;
+  m_energy.restore_put_in(m_energy.put_in_at_substep_start());
   if (m_settings.rotate_on_arcs) rotate_fragments_on_arcs(m_start_positions);
   const bool solve_gained = total_energy() > substep_energy_limit();
   if (solve_gained) {
@@ -111,7 +102,7 @@ void World::resolve_contacts_exactly(const StepSettings& step, StepReport& repor
     body.multiply_system(delta, m_held_impulses[bi]);
   }
   restore_motion(m_contact_motion);
-  m_energy_put_in = m_linear_end_put_in;
+  m_energy.restore_put_in(m_linear_end_put_in);
   m_contact_impulses = m_linear_end_impulses;
   solve_bodies_exactly(step, report, &m_held_impulses);
 }
@@ -129,7 +120,7 @@ void World::solve_bodies_exactly(const StepSettings& step, StepReport& report,
 void World::keep_linear_answer() {
   restore_motion(m_linear_end_motion);
   m_contact_impulses = m_linear_end_impulses;
-  m_energy_put_in = m_linear_end_put_in;
+  m_energy.restore_put_in(m_linear_end_put_in);
 }
 
 /// Restitution on many coupled contacts is not energy-safe. Newton's rule gives each
@@ -213,27 +204,24 @@ double World::largest_share_within(double budget, double inelastic, double bounc
   return kept;
 }
 
-std::pair<double, double> World::substep_energy_budget() const {
+double World::substep_energy_limit() {
+  measure_substep_start();
+  return m_energy.substep_limit();
+}
+
+void World::measure_substep_start() {
   // The bodies at the substep's start (after its fracture, which keeps energy): the
-  // positions and velocities solve_bodies saved. Their energies are computed once per
-  // substep (the elastic part is a polar decomposition per tet), on first use.
-  if (m_substep_start_energy.empty()) {
-    for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
-      const ImplicitIntegrator& b = m_bodies[bi].integrator();
-      const Matrix3Xd& x = m_start_positions[bi];
-      const double kinetic = 0.5 * m_substep_checkpoint[bi].velocities.colwise().squaredNorm().dot(b.node_masses());
-      const double elastic = b.elasticity().energy(x);
-      const double gravity = -m_settings.step.gravity.dot(x * b.node_masses());
-      m_substep_start_energy.push_back({kinetic + elastic + gravity, kinetic + elastic + std::abs(gravity)});
-    }
+  // positions and velocities solve_bodies saved.
+  if (m_energy.knows_bodies_at_substep_start()) return;
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+    const ImplicitIntegrator& b = m_bodies[bi].integrator();
+    const Matrix3Xd& x = m_start_positions[bi];
+    const double kinetic = 0.5 * m_substep_checkpoint[bi].velocities.colwise().squaredNorm().dot(b.node_masses());
+    const double elastic = b.elasticity().energy(x);
+    const double gravity = -m_settings.step.gravity.dot(x * b.node_masses());
+    m_energy.add_body_at_substep_start(kinetic + elastic + gravity, kinetic + elastic + std::abs(gravity));
   }
-  double budget = m_substep_projectile_energy + (m_energy_put_in - m_substep_put_in);
-  double magnitude = std::abs(m_substep_projectile_energy) + std::abs(m_energy_put_in - m_substep_put_in);
-  for (const auto& [energy, size] : m_substep_start_energy) {
-    budget += energy;
-    magnitude += size;
-  }
-  return {budget, 1e-9 * magnitude};
+  m_energy.bodies_measured();
 }
 
 void World::save_motion(Motion& out) const {

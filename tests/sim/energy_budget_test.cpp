@@ -136,6 +136,48 @@ TEST(EnergyBudget, DebrisSweptToTheCapIsAPileToo) {
   EXPECT_LT(pile.deepest, 1.5 * in_order.deepest);
 }
 
+// The limits' arithmetic, exactly: a substep may end with its start's energy (bodies and
+// launched projectiles) plus what was put in during it; the run with its start plus all
+// that was put in; each with 1e-9 of the magnitudes summed for rounding.
+TEST(EnergyBudgetLimits, ASubstepMayEndWithItsStartPlusWhatWasPutInDuringIt) {
+  EnergyBudget energy;
+  energy.start_run(10.0);
+  energy.put_in(5.0);  // a projectile launched before the substep
+  energy.start_substep(4.0);
+  energy.add_body_at_substep_start(8.0, 12.0);
+  energy.add_body_at_substep_start(-2.0, 2.0);
+  energy.bodies_measured();
+  EXPECT_TRUE(energy.knows_bodies_at_substep_start());
+  EXPECT_DOUBLE_EQ(energy.substep_limit(), 10.0 + 1e-9 * (4.0 + 12.0 + 2.0));
+  energy.put_in(3.0);  // a push during the substep
+  EXPECT_DOUBLE_EQ(energy.substep_limit(), 13.0 + 1e-9 * (4.0 + 3.0 + 12.0 + 2.0));
+  EXPECT_DOUBLE_EQ(energy.run_limit(), 18.0 + 1e-9 * (10.0 + 8.0));
+  EXPECT_DOUBLE_EQ(energy.put_in_at_substep_start(), 5.0);
+  energy.restore_put_in(energy.put_in_at_substep_start());
+  EXPECT_DOUBLE_EQ(energy.put_in(), 5.0);
+  energy.forget_bodies_at_substep_start();
+  EXPECT_FALSE(energy.knows_bodies_at_substep_start());
+}
+
+// A substep is solved again exactly only above its limit plus a share of what the run
+// has dissipated; where the run has dissipated nothing, at its limit.
+TEST(EnergyBudgetLimits, TheExactResolveLimitAddsAShareOfWhatTheRunDissipated) {
+  EnergyBudget energy;
+  energy.start_run(100.0);
+  energy.start_substep(0.0);
+  energy.add_body_at_substep_start(60.0, 60.0);  // 40 J dissipated so far
+  energy.bodies_measured();
+  const double substep = energy.substep_limit(), run = energy.run_limit();
+  EXPECT_DOUBLE_EQ(energy.exact_resolve_limit(0.0), substep);
+  EXPECT_DOUBLE_EQ(energy.exact_resolve_limit(0.01), substep + 0.01 * (run - substep));
+  EnergyBudget fresh;
+  fresh.start_run(100.0);
+  fresh.start_substep(0.0);
+  fresh.add_body_at_substep_start(100.0, 100.0);
+  fresh.bodies_measured();
+  EXPECT_DOUBLE_EQ(fresh.exact_resolve_limit(0.5), fresh.substep_limit());
+}
+
 TEST(Pile, EachSightingLastsItsMemoryAndOnlyALongSolveMakesSparseBlocksFromTheStart) {
   Pile pile;
   EXPECT_FALSE(pile.in_pile());
