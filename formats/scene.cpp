@@ -70,7 +70,7 @@ void read_box_corners(const Table& t, Vec3& min, Vec3& max) {
 void read_solver(const Table& t, SceneSolverSettings& s) {
   t.allow_only({"dt", "min_dt", "max_substep", "solver", "tolerance", "max_iterations", "preconditioner",
                 "refactor_iterations", "stiffness", "rotation", "exact_when_gaining", "exact_gain_share", "energy_halvings",
-                "contact_iterations", "contact_sweeps", "sleep_speed", "sleep_time", "threads", "max_splits_per_step"});
+                "contact_iterations", "contact_sweeps", "rigid_resting_speed", "sleep_speed", "sleep_time", "threads", "max_splits_per_step"});
   t.read_number("dt", s.dt, [](double v) { return v > 0 && v <= 1; }, "0 < dt <= 1 [s]");
   t.read_number("min_dt", s.min_dt, [&](double v) { return v >= 0 && v <= s.dt; },
                 "0 <= min_dt <= dt (= " + format_number(s.dt) + ") [s]; 0 means a fixed step");
@@ -96,6 +96,8 @@ void read_solver(const Table& t, SceneSolverSettings& s) {
                  "an integer in 1 … " + std::to_string(kMaxContactIterations));
   t.read_integer("contact_sweeps", s.contact_sweeps, 0, kMaxContactSweeps,
                  "an integer in 0 … " + std::to_string(kMaxContactSweeps) + " (0 = always the augmented Lagrangian)");
+  t.read_number("rigid_resting_speed", s.rigid_resting_speed, [](double v) { return v >= 0 && v <= 10; },
+                "0 <= rigid_resting_speed <= 10 [m/s]; 0 means every fragment stays deformable");
   t.read_number("sleep_speed", s.sleep_speed, [](double v) { return v >= 0 && v <= 1; },
                 "0 <= sleep_speed <= 1 [m/s]; 0 means nothing sleeps");
   t.read_number("sleep_time", s.sleep_time, [](double v) { return v > 0 && v <= 1e6; }, "0 < sleep_time [s]");

@@ -5,11 +5,13 @@
 # friction; each binary runs each variant once, alternating (out/bunny-5k.h5: run
 # scripts/bake-sample.sh first). Prints a Markdown table per variant and the geometric
 # means of the ratios (B ÷ A). A change to the bake plays each side's own bundle:
-# BUNDLE_A and BUNDLE_B (default out/bunny-5k.h5 for both).
-#   usage: [BUNDLE_A=A.h5 BUNDLE_B=B.h5] scripts/sample-variants.sh PLAYER_A PLAYER_B [STEPS]    (default 480)
+# BUNDLE_A and BUNDLE_B (default out/bunny-5k.h5 for both). A setting's A/B with one
+# player: SOLVER_A and SOLVER_B, lines added to that side's [solver] table.
+#   usage: [BUNDLE_A=A.h5 BUNDLE_B=B.h5] [SOLVER_A=… SOLVER_B=…] scripts/sample-variants.sh PLAYER_A PLAYER_B [STEPS]
+#          (STEPS default 480; e.g. SOLVER_B="rigid_resting_speed = 0.2")
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[[ $# -ge 2 ]] || { sed -n '2,10p' "$0" >&2; exit 2; }
+[[ $# -ge 2 ]] || { sed -n '2,12p' "$0" >&2; exit 2; }
 a=$(realpath "$1")
 b=$(realpath "$2")
 steps=${3:-480}
@@ -28,11 +30,11 @@ for toughness in 0.6 0.8 1.0; do
     for friction in 0.4 0.8; do
       name="t${toughness}_v${speed}_f${friction}"
       for side in a b; do
-        player=$a bundle=$bundle_a
-        [[ $side == b ]] && player=$b bundle=$bundle_b
+        player=$a bundle=$bundle_a solver=${SOLVER_A:-}
+        [[ $side == b ]] && player=$b bundle=$bundle_b solver=${SOLVER_B:-}
         sed -e "s|\"../../out/bunny-5k.h5\"|\"$bundle\"|" -e "s/^toughness = .*/toughness = $toughness/" \
           -e "s/^velocity = \[12.0/velocity = [$speed.0/" -e "s/^friction = .*/friction = $friction/" \
-          data/scenes/bunny-drop.toml > "$work/$name.$side.toml"
+          -e "s|^\[solver\]\$|[solver]\n$solver|" data/scenes/bunny-drop.toml > "$work/$name.$side.toml"
         "$player" -q run "$work/$name.$side.toml" --steps "$steps" --no-render --no-energy-check \
           --report "$work/$name.$side.json" > /dev/null 2>&1 || echo "warning: $name ($side) exited $?" >&2
       done

@@ -132,6 +132,7 @@ void write_summary(JsonWriter& json, const sim::World& world, const RunRecord& r
   json.key("contacts_swept_only").value(static_cast<std::uint64_t>(s.swept));
   json.key("contact_response_iterations").value(static_cast<std::uint64_t>(s.response_iterations));
   json.key("contact_response_sweeps").value(static_cast<std::uint64_t>(s.response_sweeps));
+  json.key("contact_rigid_answers").value(static_cast<std::uint64_t>(s.rigid_answers));
   json.key("restitution_limited_steps").value(static_cast<std::uint64_t>(s.restitution_limited));
   json.key("restitution_kept_min").value(s.restitution_kept_min);
   json.key("exact_substeps").value(static_cast<std::uint64_t>(s.exact_substeps));
@@ -193,6 +194,10 @@ void print_summary(const sim::World& world, const RunRecord& run) {
               per_step(static_cast<double>(s.response_iterations), steps));
   if (s.response_sweeps > 0) {
     std::printf(", %.1f sequential-impulse sweeps/step", per_step(static_cast<double>(s.response_sweeps), steps));
+  }
+  if (s.rigid_answers > 0) {
+    std::printf(", %.2f resting large fragments answered as rigid bodies/step",
+                per_step(static_cast<double>(s.rigid_answers), steps));
   }
   if (s.restitution_limited > 0) {
     std::printf("; restitution cut in %zu steps to keep the energy (down to %.2g of it)", s.restitution_limited,

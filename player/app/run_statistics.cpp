@@ -67,6 +67,7 @@ void RunStatistics::on_step(const sim::World& /*world*/, const sim::StepReport& 
   swept += r.contacts.swept;
   response_iterations += r.contacts.response_iterations;
   response_sweeps += r.contacts.response_sweeps;
+  rigid_answers += r.contacts.rigid_answers;
   unconverged += r.unconverged ? 1 : 0;
   iterations += r.solver_iterations;
   factorizations += r.factorizations;

@@ -47,6 +47,7 @@ class RunStatistics : public RunObserver {
   PhaseStats forces, assembly, solve, fracture, collisions, step;
   std::size_t splits = 0, exposed = 0, contacts = 0, swept = 0, unconverged = 0, response_iterations = 0;
   std::size_t response_sweeps = 0;
+  std::size_t rigid_answers = 0;  ///< large fragments at rest answered as rigid bodies, summed over responses
   long iterations = 0, factorizations = 0;
   int substeps_max = 1;
   /// Steps whose restitution was cut to keep a substep's energy budget, and the smallest

@@ -361,6 +361,7 @@ void World::collide(double dt, StepReport& report) {
   report.contacts.pairs_tested += counts.pairs_tested;
   report.contacts.response_iterations += counts.response_iterations;
   report.contacts.response_sweeps += counts.response_sweeps;
+  report.contacts.rigid_answers += counts.rigid_answers;
   report.contacts.responses += counts.responses;
   report.contacts.restituting += counts.restituting;
   if (restitutes) {

@@ -142,6 +142,7 @@ void World::keep_restitution_within(StepContacts& contacts, double budget, StepR
   const ContactCounts inelastic_counts = contacts.respond(0.0);
   report.contacts.response_iterations += inelastic_counts.response_iterations;
   report.contacts.response_sweeps += inelastic_counts.response_sweeps;
+  report.contacts.rigid_answers += inelastic_counts.rigid_answers;
   report.contacts.responses += inelastic_counts.responses;
   const double inelastic = total_energy();
   double kept = 0.0;
@@ -166,6 +167,7 @@ void World::add_restitution_within(StepContacts& contacts, double budget, StepRe
   const ContactCounts bounced_counts = contacts.respond(1.0);
   report.contacts.response_iterations += bounced_counts.response_iterations;
   report.contacts.response_sweeps += bounced_counts.response_sweeps;
+  report.contacts.rigid_answers += bounced_counts.rigid_answers;
   report.contacts.responses += bounced_counts.responses;
   const double bounced = total_energy();
   if (bounced <= budget) return;

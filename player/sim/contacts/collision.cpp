@@ -392,6 +392,7 @@ ContactCounts StepContacts::respond(double restitution_share, int iterations) {
   ContactCounts counts = m_counts;
   counts.response_iterations = outcome.cg_iterations;
   counts.response_sweeps = outcome.sweeps;
+  counts.rigid_answers = static_cast<std::size_t>(outcome.rigid_answers);
   counts.responses = 1;
   counts.ran_long = outcome.ran_long;
   counts.swept_to_cap = outcome.swept_to_cap;

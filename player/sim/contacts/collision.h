@@ -59,6 +59,7 @@ struct ContactCounts {
   std::size_t pairs_tested = 0;  ///< narrow-phase point pairs of the self-collision broad phase
   std::size_t response_iterations = 0;  ///< conjugate-gradient iterations of the contact response
   std::size_t response_sweeps = 0;      ///< its sequential-impulse sweeps (sequential_impulses.h)
+  std::size_t rigid_answers = 0;  ///< large fragments at rest answered as rigid bodies (rigid_response.h)
   std::size_t responses = 0;     ///< contact responses solved (World answers a substep twice to limit restitution)
   std::size_t restituting = 0;   ///< contacts whose target restitution raised (impacts above the resting speed)
   bool ran_long = false;         ///< the response's ContactResponseReport::ran_long

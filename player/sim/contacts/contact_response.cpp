@@ -6,6 +6,7 @@
 
 #include "player/sim/conjugate_gradient.h"
 #include "player/sim/contacts/joint_system.h"
+#include "player/sim/contacts/rigid_response.h"
 #include "player/sim/contacts/sequential_impulses.h"
 #include "player/sim/implicit_integrator.h"
 
@@ -311,18 +312,16 @@ std::vector<bool> debris_contacts(const JointSystem& system, std::size_t contact
   return debris;
 }
 
-}  // namespace
-
-ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::span<Projectile> projectiles,
-                                          std::span<ContactConstraint> contacts,
-                                          const ContactResponseSettings& settings) {
-  ContactResponseReport report;
+/// The response with every fragment deformable.
+void respond_deformably(std::span<CollisionBody> bodies, std::span<Projectile> projectiles,
+                        std::span<ContactConstraint> contacts, const ContactResponseSettings& settings,
+                        ContactResponseReport& report) {
   JointSystem system(bodies, projectiles, contacts, settings.contacts);
-  if (system.rows().empty()) return report;
+  if (system.rows().empty()) return;
   if (settings.contacts.sequential_impulse_sweeps <= 0 || !touches_dense_blocks(system)) {
     answer_by_lagrangian(system, settings, report);
     write_impulses(system, contacts);
-    return report;
+    return;
   }
   // A contact without a row (nothing it touches can move) counts as neither.
   const std::vector<bool> debris = debris_contacts(system, contacts.size());
@@ -334,7 +333,7 @@ ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::
       answer_debris(system, settings, report);
     }
     write_impulses(system, contacts);
-    return report;
+    return;
   }
   // Two problems on disjoint unknowns: the debris' islands, and the rest. Both systems
   // read the velocities before either answer moves them.
@@ -349,6 +348,39 @@ ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::
   std::size_t next_debris = 0, next_rest = 0;
   for (std::size_t k = 0; k < contacts.size(); ++k) {
     contacts[k].impulse = debris[k] ? debris_part[next_debris++].impulse : rest_part[next_rest++].impulse;
+  }
+}
+
+}  // namespace
+
+ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::span<Projectile> projectiles,
+                                          std::span<ContactConstraint> contacts,
+                                          const ContactResponseSettings& settings) {
+  ContactResponseReport report;
+  // Large fragments at rest on obstacles first, as rigid bodies (rigid_response.h): they
+  // share no unknown with any other contact, so the order does not matter. A rigid
+  // answer the sweeps leave short goes to the deformable response with the rest.
+  std::vector<bool> answered(contacts.size(), false);
+  for (const contact_detail::RestingFragment& f : contact_detail::resting_fragments(bodies, contacts, settings.contacts)) {
+    const contact_detail::RigidAnswer rigid = contact_detail::answer_as_rigid(
+        f, bodies[f.body], contacts, settings.contacts, settings.dt, settings.reference_speed);
+    report.sweeps += rigid.sweeps;
+    if (!rigid.acceptable) continue;
+    ++report.rigid_answers;
+    for (const std::size_t k : f.contacts) answered[k] = true;
+  }
+  if (report.rigid_answers == 0) {
+    respond_deformably(bodies, projectiles, contacts, settings, report);
+    return report;
+  }
+  std::vector<ContactConstraint> rest;
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    if (!answered[k]) rest.push_back(contacts[k]);
+  }
+  respond_deformably(bodies, projectiles, rest, settings, report);
+  std::size_t next = 0;
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    if (!answered[k]) contacts[k].impulse = rest[next++].impulse;
   }
   return report;
 }

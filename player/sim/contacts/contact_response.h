@@ -73,6 +73,7 @@ struct ContactResponseReport {
   int sweeps = 0;                  ///< sequential-impulse sweeps, where they answered (then no CG)
   /// The sequential impulses swept to their cap (ContactSettings::sequential_impulse_sweeps).
   bool swept_to_cap = false;
+  int rigid_answers = 0;           ///< large fragments at rest answered as rigid bodies (rigid_response.h)
 };
 
 /// Corrects the velocities of `bodies` and `projectiles` so the contacts hold, and moves

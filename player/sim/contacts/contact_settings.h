@@ -114,6 +114,13 @@ struct ContactSettings {
   /// 0.25 (51.3 with no sweeps), at the same penetration
   /// (docs/decisions/0072-sequential-impulses-for-debris.md).
   double sequential_impulse_reach_share = 0.25;
+
+  // --- Resting large fragments (rigid_response.cpp) ----------------------------------
+  /// A large fragment whose every contact is with a static obstacle, asks for at most
+  /// this velocity change [m/s], and whose motion is rigid to within it, is answered as
+  /// a rigid body (rigid_response.h); 0: never, every response deformable (the thesis's
+  /// model).
+  double rigid_resting_speed = 0.2;
 };
 
 }  // namespace fissure::sim
