@@ -25,6 +25,7 @@ DEFAULT_STEPS_PER_S = 240     # the player's dt, 1/240 s
 DEFAULT_TOLERANCE = 1e-4      # solver.tolerance, CG with the lagged Cholesky preconditioner
 DEFAULT_CONTACT_SWEEPS = 16   # solver.contact_sweeps (ContactSettings::sequential_impulse_sweeps)
 ENERGY_BOUND = 1.01           # energy never above what was put in, +1 % (the energy grid's bound)
+DEFAULT_RIGID_SPEED = 0.2     # solver.rigid_resting_speed [m/s] (ContactSettings::rigid_resting_speed)
 
 
 def read(folder: Path, name: str) -> list:
@@ -394,7 +395,48 @@ def debris(folder: Path):
     return "debris.png", fig
 
 
-PLOTS = (walls, contacts, cages, triangles, dt, tolerance, spin, cage_method, debris)
+def speed_label(v: float) -> str:
+    return "0 (FEM)" if v == 0 else f"{v:g}"
+
+
+def rigid(folder: Path):
+    rows = [r for r in read(folder, "rigid.csv") if r["stopped"] == "0"]
+    scenes = sorted({r["scene"] for r in rows}, reverse=True)
+    if not scenes:
+        return None
+    fig, (cost, depth, pieces, tradeoff) = figure(
+        4, "Large fragments at rest as rigid bodies (bunny-drop, 480 steps; 1 thread)")
+    for scene, marker in zip(scenes, "os"):
+        mine = sorted((r for r in rows if r["scene"] == scene), key=lambda r: float(r["rigid_resting_speed"]))
+        speed, step = column(mine, "rigid_resting_speed"), column(mine, "step_ms_mean")
+        vertex = [1e3 * v for v in column(mine, "vertex_penetration_max_m")]
+        cost.plot(speed, step, f"{marker}-", label=f"{scene}: whole step")
+        cost.plot(speed, column(mine, "collisions_ms_mean"), f"{marker}--", label=f"{scene}: collision phase")
+        depth.plot(speed, vertex, f"{marker}-", label=scene)
+        pieces.plot(speed, column(mine, "fragments"), f"{marker}-", label=scene)
+        tradeoff.plot(step, vertex, marker, label=scene)
+        label_points(tradeoff, step, vertex, [speed_label(v) for v in speed])
+        if DEFAULT_RIGID_SPEED in speed:
+            i = speed.index(DEFAULT_RIGID_SPEED)
+            mark_default_point(tradeoff, step[i], vertex[i], label="default" if marker == "o" else "")
+    cost.set(xlabel="solver.rigid_resting_speed [m/s]", ylabel="ms per step (mean)", title="cost")
+    depth.set(xlabel="solver.rigid_resting_speed [m/s]", ylabel="mm", title="deepest render vertex in an obstacle")
+    pieces.set(xlabel="solver.rigid_resting_speed [m/s]", ylabel="fragments at the end",
+               title="break-up (chaotic: compare the spread)")
+    for ax in (cost, depth, pieces):
+        ax.set_xscale("symlog", linthresh=0.05)
+        ticks_at(ax, column(rows, "rigid_resting_speed"), speed_label)
+        mark_default(ax, DEFAULT_RIGID_SPEED)
+        ax.set_ylim(bottom=0)
+        ax.legend(fontsize=7)
+    tradeoff.set(xlabel="ms per step (mean)", ylabel="deepest render vertex, mm", title="accuracy against cost")
+    tradeoff.set_xlim(left=0)
+    tradeoff.set_ylim(bottom=0)
+    tradeoff.legend(fontsize=7)
+    return "rigid.png", fig
+
+
+PLOTS = (walls, contacts, cages, triangles, dt, tolerance, spin, cage_method, debris, rigid)
 
 
 def plot_all(data: Path, out: Path) -> list:

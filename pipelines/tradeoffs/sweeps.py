@@ -12,6 +12,9 @@ Six sweeps, each named by what it varies:
             --method lattice|wrap`) at the same counts: replication and the physics step
   debris    the contact response's sequential-impulse sweeps (`solver.contact_sweeps`) on
             the bunny shattered into hundreds of fragments: collision time against sinking
+  rigid     large fragments at rest answered as rigid bodies (`solver.rigid_resting_speed`,
+            0 = every answer deformable): the step against the deepest render vertex and
+            the sag a rigid answer does not make, on the sample with and without fracture
 """
 
 import csv
@@ -56,6 +59,7 @@ class Tools:
             "contacts": [self.bake, self.player],
             "cage-method": [self.bake, self.player],
             "debris": [self.bake, self.player],
+            "rigid": [self.bake, self.player],
         }[sweep]
         missing = [f"{p} is not built" for p in needs if not p.is_file()]
         if sweep == "contacts" and shutil.which("h5dump") is None:
@@ -387,18 +391,86 @@ def run_debris(tools: Tools, quick: bool, staging: Path) -> None:
         writer.writerows(rows)
 
 
+# --- rigid: large fragments at rest as rigid bodies against all deformable -------------
+
+@dataclass(frozen=True)
+class RigidPlan:
+    speeds: tuple        # solver.rigid_resting_speed [m/s]; 0 answers every contact deformably
+    steps: int           # the bunny lands at about step 24; the ball hits at about 132
+    time_limit_s: float
+
+
+FULL_RIGID = RigidPlan((0.0, 0.05, 0.1, 0.2, 0.5, 1.0), 480, 300.0)
+QUICK_RIGID = RigidPlan((0.0, 0.2), 150, 120.0)
+RIGID_SCENES = {"fracture off": "false", "as shipped": "true"}  # name: [features] fracture
+RIGID_COLUMNS = ["scene", "rigid_resting_speed", "fragments", "rigid_answers_per_step", "step_ms_mean", "step_ms_p99",
+                 "collisions_ms_mean", "vertex_penetration_max_m", "sphere_penetration_max_m", "elastic_final_J",
+                 "energy_peak_over_given", "stopped"]
+
+
+def rigid_scene(base: str, bundle: str, fracture: str, speed: float) -> str:
+    """bunny-drop.toml with its bundle replaced, fracture on or off and
+    `solver.rigid_resting_speed` set."""
+    scene = re.sub(r"^(\s*bundle\s*=).*$", rf'\1 "{bundle}"', base, count=1, flags=re.M)
+    scene, fractured = re.subn(r"^(\s*fracture\s*=).*$", rf"\1 {fracture}", scene, count=1, flags=re.M)
+    scene, solver = re.subn(r"^\[solver\].*$", lambda m: f"{m.group(0)}\nrigid_resting_speed = {speed}", scene,
+                            count=1, flags=re.M)
+    if not (fractured and solver):
+        raise SweepError(f"{BASE_SCENE} must have a [solver] table and a fracture feature for the rigid sweep")
+    return scene
+
+
+def rigid_row(scene: str, speed: float, report: dict) -> dict:
+    row = {"scene": scene, "rigid_resting_speed": speed, "stopped": int(report is None)}
+    if report is None:
+        return row
+    try:
+        summary, timings, steps = report["summary"], report["timings"], report["steps"]
+        given = summary["energy_initial_J"] + summary["energy_put_in_J"]
+        row.update(fragments=summary["fragments"], rigid_answers_per_step=summary["contact_rigid_answers"] / steps,
+                   step_ms_mean=timings["step"]["mean_ms"], step_ms_p99=timings["step"]["p99_ms"],
+                   collisions_ms_mean=timings["collisions"]["mean_ms"],
+                   vertex_penetration_max_m=summary["vertex_penetration_max_m"],
+                   sphere_penetration_max_m=summary["sphere_penetration_max_m"],
+                   elastic_final_J=summary["elastic_final_J"], energy_peak_over_given=summary["energy_max_J"] / given)
+    except KeyError as e:
+        raise SweepError(f"the player's report has no {e} (run it with diagnostics on)")
+    return row
+
+
+def run_rigid(tools: Tools, quick: bool, staging: Path) -> None:
+    plan = QUICK_RIGID if quick else FULL_RIGID
+    work, log, base = player_sweep_start(tools, staging, "rigid")
+    bake_bundle(tools, work / "bunny.h5", log)
+    rows = []
+    for name, fracture in RIGID_SCENES.items():
+        for speed in plan.speeds:
+            stem = f"{'fracture' if fracture == 'true' else 'intact'}-{speed}"
+            scene = work / f"{stem}.toml"
+            scene.write_text(rigid_scene(base, "bunny.h5", fracture, speed))
+            print(f"    {name}, rigid_resting_speed = {speed} ({plan.steps} steps)", flush=True)
+            report = play(tools, scene, work / f"{stem}.json", ContactPlan((), plan.steps, plan.time_limit_s), log)
+            rows.append(rigid_row(name, speed, report))
+    with open(staging / "rigid.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, RIGID_COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 def run_sweep(tools: Tools, sweep: str, quick: bool, staging: Path) -> None:
     if sweep == "contacts":
         run_contacts(tools, quick, staging)
     elif sweep == "debris":
         run_debris(tools, quick, staging)
+    elif sweep == "rigid":
+        run_rigid(tools, quick, staging)
     elif sweep == "cage-method":
         run_cage_methods(tools, quick, staging)
     else:
         run_bench(tools, sweep, quick, staging)
 
 
-SWEEPS = ("bake", "draw", "solver", "contacts", "cage-method", "debris")
+SWEEPS = ("bake", "draw", "solver", "contacts", "cage-method", "debris", "rigid")
 # The files each sweep leaves; the rest of its staging folder (bundles, scenes) is scratch.
 OUTPUTS = {
     "bake": ("walls.csv", "spheres-bake.csv", "bake.md"),
@@ -407,4 +479,5 @@ OUTPUTS = {
     "contacts": ("contacts.csv",),
     "cage-method": ("cage-method.csv",),
     "debris": ("debris.csv",),
+    "rigid": ("rigid.csv",),
 }

@@ -12,7 +12,8 @@ Sweeps: bake (wall resolution, bake-side sphere radius), draw (cage tets and tri
 against replication, step and draw time), solver (dt, CG tolerance, exact against warped
 stiffness), contacts (sphere radius in the player against the exact every-vertex mode),
 cage-method (hand-made cages against `fissure-bake cage --method lattice|wrap`), debris
-(the contact response's sequential-impulse sweeps on the shattered bunny).
+(the contact response's sequential-impulse sweeps on the shattered bunny), rigid (large
+fragments at rest answered as rigid bodies against all deformable).
 
 Needs a release build (scripts/build.sh release), matplotlib (python3-matplotlib) and
 h5dump (hdf5-tools): scripts/install-deps.sh installs both.

@@ -135,8 +135,23 @@ def check_debris(out: Path) -> None:
         check(float(r["energy_peak_over_given"]) <= 1.01, f"energy stays within what was given +1 %: {r}")
 
 
+def check_rigid(out: Path) -> None:
+    """Record 0073: at the default speed the resting bunny is answered rigidly, at 0 never;
+    every run keeps the energy bound."""
+    table = {(r["scene"], float(r["rigid_resting_speed"])): r for r in rows(out, "rigid.csv")}
+    check(sorted(table) == [("as shipped", 0.0), ("as shipped", 0.2), ("fracture off", 0.0), ("fracture off", 0.2)],
+          f"the quick sweep plays speeds 0 and 0.2 on both scenes: {sorted(table)}")
+    check(all(r["stopped"] == "0" for r in table.values()), "no rigid run passed its time limit")
+    for scene in ("as shipped", "fracture off"):
+        check(float(table[(scene, 0.0)]["rigid_answers_per_step"]) == 0, f"speed 0 answers nothing rigidly: {scene}")
+        check(float(table[(scene, 0.2)]["rigid_answers_per_step"]) > 0.5,
+              f"speed 0.2 answers the resting bunny rigidly in most steps: {table[(scene, 0.2)]}")
+    for r in table.values():
+        check(float(r["energy_peak_over_given"]) <= 1.01, f"energy stays within what was given +1 %: {r}")
+
+
 def check_plots(out: Path) -> None:
-    for name in ("walls", "contacts", "cages", "triangles", "dt", "tolerance", "spin", "cage-method", "debris"):
+    for name in ("walls", "contacts", "cages", "triangles", "dt", "tolerance", "spin", "cage-method", "debris", "rigid"):
         png = out / f"{name}.png"
         check(png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000,
               f"{name}.png is a plot")
@@ -188,7 +203,7 @@ def main() -> int:
             print(f"FAIL: tradeoffs.py --quick exited with {run.returncode}\n{run.stderr}", file=sys.stderr)
             return 1
         for checks in (check_walls, check_spheres, check_draw, check_solver, check_cage_method, check_debris,
-                       check_plots):
+                       check_rigid, check_plots):
             try:
                 checks(out)
             except (OSError, KeyError, IndexError, ValueError) as e:  # a missing file or column: report, go on
