@@ -162,9 +162,10 @@ struct SceneSolverSettings {
   /// (docs/decisions/0072-sequential-impulses-for-debris.md).
   int contact_sweeps = 16;
   /// A large fragment at rest on static obstacles (its contacts asking for at most this
-  /// velocity change, its motion rigid to within it) has its contacts answered as a
-  /// rigid body's, 0 … 10 [m/s] (sim::ContactSettings::rigid_resting_speed); 0 = never,
-  /// every fragment deformable in every response (the thesis's model).
+  /// velocity change, or twice one step of gravity where that is more, its motion rigid
+  /// to within it) has its contacts answered as a rigid body's, 0 … 10 [m/s]
+  /// (sim::ContactSettings::rigid_resting_speed); 0 = never, every fragment deformable
+  /// in every response (the thesis's model).
   double rigid_resting_speed = 0.2;
   /// Islands of fragments slower than sleep_speed for sleep_time are held still until
   /// something closes on them (sim::SleepSettings); sleep_speed 0 = never.

@@ -73,6 +73,18 @@ TEST(RigidResponse, ABlockAtRestIsAnsweredRigidlyAndLiesWhereTheDeformableAnswer
   EXPECT_LE(rigid.highest_gain, 1e-9);
 }
 
+// At 1/60 s one step of gravity alone asks 0.16 m/s of each resting contact; the resting
+// speed counts beyond it, so a block at rest is still answered rigidly at large steps.
+TEST(RigidResponse, ABlockAtRestAtLargeStepsIsStillAnsweredRigidly) {
+  for (const double dt : {1.0 / 60.0, 0.1}) {
+    testing::SceneParts scene = block_on_ground(0.2);
+    scene.settings.step.dt = dt;
+    const Rest rest = settle(scene, 60);
+    EXPECT_GE(rest.rigid_answers, 50u) << "dt = " << dt;
+    EXPECT_LE(rest.highest_gain, 1e-9) << "dt = " << dt;
+  }
+}
+
 // Sliding at 1 m/s on μ = 0.5 the block stops in v² / (2 μ g) = 0.10 m, answered
 // rigidly once its contacts ask less than the resting speed (friction acts on the
 // sliding, not the normal velocity): exact Coulomb friction stops it as the lagged

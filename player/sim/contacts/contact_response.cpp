@@ -361,7 +361,8 @@ ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::
   // share no unknown with any other contact, so the order does not matter. A rigid
   // answer the sweeps leave short goes to the deformable response with the rest.
   std::vector<bool> answered(contacts.size(), false);
-  for (const contact_detail::RestingFragment& f : contact_detail::resting_fragments(bodies, contacts, settings.contacts)) {
+  for (const contact_detail::RestingFragment& f : contact_detail::resting_fragments(bodies, contacts, settings.contacts,
+                                                                                       settings.reference_speed)) {
     const contact_detail::RigidAnswer rigid = contact_detail::answer_as_rigid(
         f, bodies[f.body], contacts, settings.contacts, settings.dt, settings.reference_speed);
     report.sweeps += rigid.sweeps;

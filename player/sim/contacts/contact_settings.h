@@ -117,9 +117,11 @@ struct ContactSettings {
 
   // --- Resting large fragments (rigid_response.cpp) ----------------------------------
   /// A large fragment whose every contact is with a static obstacle, asks for at most
-  /// this velocity change [m/s], and whose motion is rigid to within it, is answered as
-  /// a rigid body (rigid_response.h); 0: never, every response deformable (the thesis's
-  /// model).
+  /// this velocity change [m/s] (or twice one step of gravity, |g| h, where that is
+  /// more), and whose motion is rigid to within it, is answered as a rigid body
+  /// (rigid_response.h); 0: never, every response deformable (the thesis's model). On
+  /// the sample with fracture off 0.2 halved the step
+  /// (docs/decisions/0073-rigid-answers-at-rest.md).
   double rigid_resting_speed = 0.2;
 };
 

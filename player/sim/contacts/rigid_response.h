@@ -17,8 +17,9 @@
 ///
 /// At rest means: every contact on the fragment is with a static obstacle (no other
 /// fragment, no projectile), no node of it is pinned or held, each contact asks for at
-/// most `ContactSettings::rigid_resting_speed` of velocity change, and its motion is
-/// rigid to within that speed (its kinetic energy beyond the rigid part at most ½ m s²).
+/// most `ContactSettings::rigid_resting_speed` of velocity change (or 2 |g| h where that is
+/// more: holding it up asks |g| h), and its motion is rigid to within that
+/// speed (its kinetic energy beyond the rigid part at most ½ m s²).
 /// Anything faster, an impact or a hit, is answered by the augmented Lagrangian with
 /// the fragment deformable, so it can still break.
 
@@ -38,10 +39,11 @@ struct RestingFragment {
 };
 
 /// The large fragments (more than ContactSettings::dense_fragment_nodes free nodes) that
-/// are at rest, as the header says; none if rigid_resting_speed is 0.
+/// are at rest, as the header says; none if rigid_resting_speed is 0. `reference_speed`
+/// is |g| h (ContactResponseSettings::reference_speed).
 std::vector<RestingFragment> resting_fragments(std::span<const CollisionBody> bodies,
                                                std::span<const ContactConstraint> contacts,
-                                               const ContactSettings& settings);
+                                               const ContactSettings& settings, double reference_speed);
 
 /// What answering one resting fragment did.
 struct RigidAnswer {
