@@ -195,6 +195,14 @@ def play(tools: Tools, scene: Path, report: Path, plan: ContactPlan, log: Path) 
         raise SweepError(f"could not read the player's report {report.name}: {e}")
 
 
+def write_csv(path: Path, columns: list, rows: list) -> None:
+    """One sweep's rows as a CSV file with a header."""
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, columns)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 CONTACT_COLUMNS = ["collision_points", "radius_over_default", "target_radius_m", "spheres", "sphere_radius_median_m",
                    "vertex_penetration_max_m", "sphere_penetration_max_m", "collisions_ms_mean", "step_ms_mean",
                    "contacts", "stopped"]
@@ -245,10 +253,7 @@ def run_contacts(tools: Tools, quick: bool, staging: Path) -> None:
     scene.write_text(scene_with(base, "default.h5", "vertices"))
     print(f"    every render vertex, the exact mode ({plan.steps} steps)", flush=True)
     rows.append(contact_row("vertices", "", "", [], play(tools, scene, work / "vertices.json", plan, log)))
-    with open(staging / "contacts.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, CONTACT_COLUMNS)
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(staging / "contacts.csv", CONTACT_COLUMNS, rows)
 
 
 # --- cage-method: automatic cages against the hand-made ones ---------------------------
@@ -319,10 +324,7 @@ def run_cage_methods(tools: Tools, quick: bool, staging: Path) -> None:
         tets, per_triangle = replicated[cage.name]
         row.update(tets=tets, instances_per_triangle=f"{per_triangle:.4f}",
                    step_ms_mean="" if report is None else report["timings"]["step"]["mean_ms"])
-    with open(staging / "cage-method.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, CAGE_METHOD_COLUMNS)
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(staging / "cage-method.csv", CAGE_METHOD_COLUMNS, rows)
 
 
 # --- debris: sequential impulses against the augmented Lagrangian ---------------------
@@ -385,10 +387,7 @@ def run_debris(tools: Tools, quick: bool, staging: Path) -> None:
         print(f"    contact_sweeps = {sweeps}, toughness 0 ({plan.steps} steps)", flush=True)
         report = play(tools, scene, work / f"sweeps-{sweeps}.json", ContactPlan((), plan.steps, plan.time_limit_s), log)
         rows.append(debris_row(sweeps, report))
-    with open(staging / "debris.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, DEBRIS_COLUMNS)
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(staging / "debris.csv", DEBRIS_COLUMNS, rows)
 
 
 # --- rigid: large fragments at rest as rigid bodies against all deformable -------------
@@ -451,10 +450,7 @@ def run_rigid(tools: Tools, quick: bool, staging: Path) -> None:
             print(f"    {name}, rigid_resting_speed = {speed} ({plan.steps} steps)", flush=True)
             report = play(tools, scene, work / f"{stem}.json", ContactPlan((), plan.steps, plan.time_limit_s), log)
             rows.append(rigid_row(name, speed, report))
-    with open(staging / "rigid.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, RIGID_COLUMNS)
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(staging / "rigid.csv", RIGID_COLUMNS, rows)
 
 
 def run_sweep(tools: Tools, sweep: str, quick: bool, staging: Path) -> None:

@@ -4,6 +4,7 @@
 /// contact, its constraint, and its name from one step to the next. Both import this;
 /// neither imports the other's header for them.
 
+#include <cmath>
 #include <compare>
 #include <cstdint>
 #include <map>
@@ -61,5 +62,14 @@ struct ContactConstraint {
   /// Bounds what the contact may be left missing (ContactSettings::reach_share).
   double reach = 0;
 };
+
+/// A contact's frame: columns the unit normal, then two unit tangents (any pair).
+inline Mat3 contact_frame(const Vec3& normal) {
+  const Vec3 helper = std::abs(normal.x()) < 0.6 ? Vec3::UnitX() : Vec3::UnitY();
+  const Vec3 first = normal.cross(helper).normalized();
+  Mat3 frame;
+  frame << normal, first, normal.cross(first);
+  return frame;
+}
 
 }  // namespace fissure::sim

@@ -90,15 +90,6 @@ double required_of(const ImplicitIntegrator& body, const ContactConstraint& c) {
   return c.target - c.normal.dot(body_sign(c) * point_state(body, body_side(c)).second);
 }
 
-/// Columns: the normal, then two unit tangents.
-Mat3 contact_frame(const Vec3& normal) {
-  const Vec3 helper = std::abs(normal.x()) < 0.6 ? Vec3::UnitX() : Vec3::UnitY();
-  const Vec3 first = normal.cross(helper).normalized();
-  Mat3 frame;
-  frame << normal, first, normal.cross(first);
-  return frame;
-}
-
 Mat3 cross_matrix(const Vec3& v) {
   Mat3 m;
   m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;

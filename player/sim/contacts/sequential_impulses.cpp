@@ -10,15 +10,6 @@ namespace fissure::sim::contact_detail {
 
 namespace {
 
-/// Columns: the normal, then two unit tangents.
-Mat3 contact_frame(const Vec3& normal) {
-  const Vec3 helper = std::abs(normal.x()) < 0.6 ? Vec3::UnitX() : Vec3::UnitY();
-  const Vec3 first = normal.cross(helper).normalized();
-  Mat3 frame;
-  frame << normal, first, normal.cross(first);
-  return frame;
-}
-
 class SequentialImpulses {
  public:
   SequentialImpulses(JointSystem& system, const BlockJacobi& blocks)
