@@ -1,7 +1,6 @@
 #include "player/sim/contacts/rigid_response.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <map>
 #include <utility>
