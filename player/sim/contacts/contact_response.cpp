@@ -201,8 +201,7 @@ void write_impulses(const JointSystem& system, std::span<ContactConstraint> cont
 std::vector<double> allowed_misses(const std::vector<Row>& rows, const ContactResponseSettings& settings) {
   std::vector<double> allowed(rows.size());
   for (std::size_t k = 0; k < rows.size(); ++k) {
-    allowed[k] = settings.contacts.relative_violation * std::max(std::abs(rows[k].required), settings.reference_speed);
-    if (rows[k].reach > 0.0) allowed[k] = std::min(allowed[k], settings.contacts.reach_share * rows[k].reach / settings.dt);
+    allowed[k] = settings.contacts.allowed_miss(rows[k].required, rows[k].reach, settings.dt, settings.reference_speed);
   }
   return allowed;
 }
@@ -251,8 +250,7 @@ void answer_debris(JointSystem& system, const ContactResponseSettings& settings,
   const std::vector<double> allowed = allowed_misses(rows, settings);
   std::vector<double> tolerance(allowed), acceptable(allowed);
   for (std::size_t k = 0; k < rows.size(); ++k) {
-    if (rows[k].reach <= 0.0) continue;
-    acceptable[k] = settings.contacts.sequential_impulse_reach_share * rows[k].reach / settings.dt;
+    acceptable[k] = settings.contacts.acceptable_sweep_miss(allowed[k], rows[k].reach, settings.dt);
     tolerance[k] = std::min(allowed[k], acceptable[k]);
   }
   std::vector<double> last_steps(rows.size());

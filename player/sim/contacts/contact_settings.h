@@ -5,6 +5,9 @@
 /// contact_sweeps); the rest stay at these defaults outside studies and tests. The
 /// records in docs/decisions/ hold the measurements behind each.
 
+#include <algorithm>
+#include <cmath>
+
 #include "common/types.h"
 
 namespace fissure::sim {
@@ -123,6 +126,19 @@ struct ContactSettings {
   /// the sample with fracture off 0.2 halved the step
   /// (docs/decisions/0073-rigid-answers-at-rest.md).
   double rigid_resting_speed = 0.2;
+
+  /// What a contact asking `required` [m/s] of the response may still miss its target by
+  /// when the iterations stop: relative_violation of what it asks (or of
+  /// `reference_speed`, |g| h), never more than reach_share of its reach per step.
+  [[nodiscard]] double allowed_miss(double required, double reach, double dt, double reference_speed) const {
+    const double allowed = relative_violation * std::max(std::abs(required), reference_speed);
+    return reach > 0.0 ? std::min(allowed, reach_share * reach / dt) : allowed;
+  }
+  /// What sequential impulses may leave it short by at their cap (`allowed` for a point
+  /// without reach); they stop at the smaller of this and `allowed`.
+  [[nodiscard]] double acceptable_sweep_miss(double allowed, double reach, double dt) const {
+    return reach > 0.0 ? sequential_impulse_reach_share * reach / dt : allowed;
+  }
 };
 
 }  // namespace fissure::sim

@@ -199,14 +199,10 @@ RigidContact rigid_contact(const ImplicitIntegrator& body, const RigidBody& rigi
   out.free_velocity = out.frame.transpose() * (body_sign(c) * velocity);
   out.required = c.target - out.free_velocity[0];
   out.friction = c.friction;
-  // The augmented Lagrangian's rule (contact_response.cpp, allowed_misses), and never
-  // more than the debris' share of the reach per step (answer_debris).
-  double allowed = settings.relative_violation * std::max(std::abs(out.required), reference_speed);
-  out.acceptable = allowed;
-  if (c.reach > 0.0) {
-    allowed = std::min(allowed, settings.reach_share * c.reach / dt);
-    out.acceptable = settings.sequential_impulse_reach_share * c.reach / dt;
-  }
+  // The augmented Lagrangian's rule, and never more than the debris' share of the reach
+  // per step (answer_debris in contact_response.cpp).
+  const double allowed = settings.allowed_miss(out.required, c.reach, dt, reference_speed);
+  out.acceptable = settings.acceptable_sweep_miss(allowed, c.reach, dt);
   out.tolerance = std::min(allowed, out.acceptable);
   out.impulse = Vec3(std::max(c.impulse, 0.0), 0.0, 0.0);
   return out;
