@@ -245,7 +245,11 @@ void answer_by_lagrangian(JointSystem& system, const ContactResponseSettings& se
 /// bar sink 0.18 m). At the cap, the answer is kept if no contact falls short by more
 /// than that share of its reach (it sinks at most that much in the step, and the
 /// push-out of the next steps takes it back).
-void answer_debris(JointSystem& system, const ContactResponseSettings& settings, ContactResponseReport& report) {
+///
+/// Resting large fragments take part as rigid groups (rigid_response.h); if the answer is
+/// not kept, the augmented Lagrangian answers them deformably with the rest.
+void answer_debris(JointSystem& system, std::span<const contact_detail::RigidGroup> rigid,
+                   const ContactResponseSettings& settings, ContactResponseReport& report) {
   std::vector<Row>& rows = system.rows();
   const std::vector<double> allowed = allowed_misses(rows, settings);
   std::vector<double> tolerance(allowed), acceptable(allowed);
@@ -256,10 +260,12 @@ void answer_debris(JointSystem& system, const ContactResponseSettings& settings,
   std::vector<double> last_steps(rows.size());
   for (std::size_t k = 0; k < rows.size(); ++k) last_steps[k] = rows[k].lambda;
   const contact_detail::SequentialImpulsesAnswer answer =
-      contact_detail::solve_by_sequential_impulses(system, tolerance, acceptable, settings.contacts.sequential_impulse_sweeps);
+      contact_detail::solve_by_sequential_impulses(system, rigid, tolerance, acceptable,
+                                                   settings.contacts.sequential_impulse_sweeps);
   report.sweeps += answer.sweeps;
   report.swept_to_cap = report.swept_to_cap || !answer.met;
   if (answer.acceptable) {
+    report.rigid_answers += answer.rigid_groups_moved;
     report.largest_violation = std::max(report.largest_violation, answer.largest_violation);
     system.apply(answer.delta, answer.forces, settings.dt);
     return;
@@ -280,22 +286,30 @@ bool touches_dense_blocks(const JointSystem& system) {
   });
 }
 
-/// Per contact: whether its island (the contacts joined through the small fragments and
-/// projectiles they touch) reads only sealed dense blocks (JointSystem::sealed_groups),
-/// so the sequential impulses can answer it. The large fragments (and any block a tet
-/// joins to another) all count as one piece: every contact that touches one goes to the
-/// augmented Lagrangian, with everything joined to it.
-std::vector<bool> debris_contacts(const JointSystem& system, std::size_t contact_count) {
+/// Per contact: whether its island (the contacts joined through the small fragments,
+/// resting large fragments and projectiles they touch) reads only sealed dense blocks
+/// (JointSystem::sealed_groups) and rigid groups, so the sequential impulses can answer
+/// it. The other large fragments (and any block a tet joins to another) all count as one
+/// piece: every contact that touches one goes to the augmented Lagrangian, with
+/// everything joined to it.
+std::vector<bool> debris_contacts(const JointSystem& system, std::span<const contact_detail::RigidGroup> rigid,
+                                  std::size_t contact_count) {
   const BlockJacobi& blocks = system.blocks();
   const std::vector<bool> sealed = system.sealed_groups();
   const Index large = blocks.group_count();
-  std::vector<Index> parent(static_cast<std::size_t>(large) + 1);
+  // Units: the dense blocks, then the one large piece, then the rigid groups.
+  std::vector<Index> rigid_unit(static_cast<std::size_t>(system.size() / 3), kInvalidIndex);
+  for (std::size_t r = 0; r < rigid.size(); ++r) {
+    for (const Eigen::Index row : rigid[r].rows) rigid_unit[row / 3] = large + 1 + static_cast<Index>(r);
+  }
+  std::vector<Index> parent(static_cast<std::size_t>(large) + 1 + rigid.size());
   std::iota(parent.begin(), parent.end(), Index{0});
   const auto root = [&](Index u) {
     while (parent[u] != u) u = parent[u] = parent[parent[u]];
     return u;
   };
   const auto unit = [&](const contact_detail::Entry& e) {
+    if (rigid_unit[e.row / 3] != kInvalidIndex) return rigid_unit[e.row / 3];
     const Index g = blocks.group_of(e.row);
     return g == kInvalidIndex || !sealed[g] ? large : g;
   };
@@ -310,25 +324,27 @@ std::vector<bool> debris_contacts(const JointSystem& system, std::size_t contact
   return debris;
 }
 
-/// The response with every fragment deformable.
-void respond_deformably(std::span<CollisionBody> bodies, std::span<Projectile> projectiles,
-                        std::span<ContactConstraint> contacts, const ContactResponseSettings& settings,
-                        ContactResponseReport& report) {
+/// The response: the debris' islands (small fragments, resting large fragments as rigid
+/// bodies, projectiles) by sequential impulses, the rest by the augmented Lagrangian.
+void respond(std::span<CollisionBody> bodies, std::span<Projectile> projectiles,
+             std::span<ContactConstraint> contacts, std::span<const contact_detail::RestingFragment> resting,
+             const ContactResponseSettings& settings, ContactResponseReport& report) {
   JointSystem system(bodies, projectiles, contacts, settings.contacts);
   if (system.rows().empty()) return;
-  if (settings.contacts.sequential_impulse_sweeps <= 0 || !touches_dense_blocks(system)) {
+  if (settings.contacts.sequential_impulse_sweeps <= 0 || (resting.empty() && !touches_dense_blocks(system))) {
     answer_by_lagrangian(system, settings, report);
     write_impulses(system, contacts);
     return;
   }
   // A contact without a row (nothing it touches can move) counts as neither.
-  const std::vector<bool> debris = debris_contacts(system, contacts.size());
+  const std::vector<contact_detail::RigidGroup> rigid = contact_detail::rigid_groups(bodies, resting, system);
+  const std::vector<bool> debris = debris_contacts(system, rigid, contacts.size());
   const auto debris_count = static_cast<std::size_t>(std::count(debris.begin(), debris.end(), true));
   if (debris_count == system.rows().size() || debris_count == 0) {
     if (debris_count == 0) {
       answer_by_lagrangian(system, settings, report);
     } else {
-      answer_debris(system, settings, report);
+      answer_debris(system, rigid, settings, report);
     }
     write_impulses(system, contacts);
     return;
@@ -339,7 +355,7 @@ void respond_deformably(std::span<CollisionBody> bodies, std::span<Projectile> p
   for (std::size_t k = 0; k < contacts.size(); ++k) (debris[k] ? debris_part : rest_part).push_back(contacts[k]);
   JointSystem debris_system(bodies, projectiles, debris_part, settings.contacts),
       rest_system(bodies, projectiles, rest_part, settings.contacts);
-  answer_debris(debris_system, settings, report);
+  answer_debris(debris_system, contact_detail::rigid_groups(bodies, resting, debris_system), settings, report);
   answer_by_lagrangian(rest_system, settings, report);
   write_impulses(debris_system, debris_part);
   write_impulses(rest_system, rest_part);
@@ -355,32 +371,9 @@ ContactResponseReport respond_to_contacts(std::span<CollisionBody> bodies, std::
                                           std::span<ContactConstraint> contacts,
                                           const ContactResponseSettings& settings) {
   ContactResponseReport report;
-  // Large fragments at rest on obstacles first, as rigid bodies (rigid_response.h): they
-  // share no unknown with any other contact, so the order does not matter. A rigid
-  // answer the sweeps leave short goes to the deformable response with the rest.
-  std::vector<bool> answered(contacts.size(), false);
-  for (const contact_detail::RestingFragment& f : contact_detail::resting_fragments(bodies, contacts, settings.contacts,
-                                                                                       settings.reference_speed)) {
-    const contact_detail::RigidAnswer rigid = contact_detail::answer_as_rigid(
-        f, bodies[f.body], contacts, settings.contacts, settings.dt, settings.reference_speed);
-    report.sweeps += rigid.sweeps;
-    if (!rigid.acceptable) continue;
-    ++report.rigid_answers;
-    for (const std::size_t k : f.contacts) answered[k] = true;
-  }
-  if (report.rigid_answers == 0) {
-    respond_deformably(bodies, projectiles, contacts, settings, report);
-    return report;
-  }
-  std::vector<ContactConstraint> rest;
-  for (std::size_t k = 0; k < contacts.size(); ++k) {
-    if (!answered[k]) rest.push_back(contacts[k]);
-  }
-  respond_deformably(bodies, projectiles, rest, settings, report);
-  std::size_t next = 0;
-  for (std::size_t k = 0; k < contacts.size(); ++k) {
-    if (!answered[k]) contacts[k].impulse = rest[next++].impulse;
-  }
+  const std::vector<contact_detail::RestingFragment> resting =
+      contact_detail::resting_fragments(bodies, contacts, settings.contacts, settings.reference_speed);
+  respond(bodies, projectiles, contacts, resting, settings, report);
   return report;
 }
 

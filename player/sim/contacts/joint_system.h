@@ -105,6 +105,8 @@ class JointSystem {
   /// augmented Lagrangian needs them, so it asks before its first iteration.
   void set_penalties();
   [[nodiscard]] Index row_of(std::size_t contact) const { return m_contact_row[contact]; }
+  /// Body bi's first row among the unknowns, or −1 if no contact moves it.
+  [[nodiscard]] Eigen::Index body_offset(std::size_t bi) const { return m_body_offset[bi]; }
 
   /// y = (𝒜 + Σ_active κ n nᵀ ⊗ G + Σ η Gᵀ T G) x. Each row's force in parallel, then
   /// each node's share of them in row order: the sums a serial pass over the rows makes,

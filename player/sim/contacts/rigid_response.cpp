@@ -5,6 +5,7 @@
 #include <map>
 #include <utility>
 
+#include "player/sim/contacts/joint_system.h"
 #include "player/sim/implicit_integrator.h"
 
 namespace fissure::sim::contact_detail {
@@ -69,30 +70,18 @@ RigidBody rigid_body_of(const ImplicitIntegrator& body, std::span<const NodeInde
   return r;
 }
 
-/// The body's side of a contact: +1 if it is side a (the normal points towards it), −1 if b.
-double body_sign(const ContactConstraint& c) { return c.a.kind == Side::Embedded ? 1.0 : -1.0; }
-const ContactSide& body_side(const ContactConstraint& c) { return c.a.kind == Side::Embedded ? c.a : c.b; }
-
-/// The embedded point's position and velocity.
-std::pair<Vec3, Vec3> point_state(const ImplicitIntegrator& body, const ContactSide& s) {
-  Vec3 x = Vec3::Zero(), v = Vec3::Zero();
-  for (int i = 0; i < 4; ++i) {
-    const NodeIndex n = body.elasticity().tets()(i, s.tet);
-    x += s.weight[i] * body.positions().col(n);
-    v += s.weight[i] * body.velocities().col(n);
-  }
-  return {x, v};
+/// The point's velocity: an embedded point's from its tet's nodes; an obstacle's is 0.
+Vec3 side_velocity(std::span<const CollisionBody> bodies, const ContactSide& s) {
+  if (s.kind != Side::Embedded) return Vec3::Zero();
+  const ImplicitIntegrator& body = *bodies[s.owner].body;
+  Vec3 v = Vec3::Zero();
+  for (int i = 0; i < 4; ++i) v += s.weight[i] * body.velocities().col(body.elasticity().tets()(i, s.tet));
+  return v;
 }
 
 /// target − n · (v_a − v_b): what the contact asks of the response [m/s].
-double required_of(const ImplicitIntegrator& body, const ContactConstraint& c) {
-  return c.target - c.normal.dot(body_sign(c) * point_state(body, body_side(c)).second);
-}
-
-Mat3 cross_matrix(const Vec3& v) {
-  Mat3 m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
+double required_of(std::span<const CollisionBody> bodies, const ContactConstraint& c) {
+  return c.target - c.normal.dot(side_velocity(bodies, c.a) - side_velocity(bodies, c.b));
 }
 
 /// Whether the candidate is at rest (rigid_response.h), with `nodes` its free nodes.
@@ -101,111 +90,17 @@ Mat3 cross_matrix(const Vec3& v) {
 /// more than the resting speed (contact_targets' resting speed is 2 |g| h too). Not the
 /// sum of the two: at 1/240 s that answered the 10,024-tet bunny rigidly in 126 of 480
 /// steps against 185, with 1.7× the conjugate gradients (one run each).
-bool at_rest(const ImplicitIntegrator& body, std::span<const NodeIndex> nodes, std::span<const ContactConstraint> contacts,
-             std::span<const std::size_t> mine, double speed, double reference_speed) {
+bool at_rest(std::span<const CollisionBody> bodies, Index body, std::span<const NodeIndex> nodes,
+             std::span<const ContactConstraint> contacts, std::span<const std::size_t> mine, double speed,
+             double reference_speed) {
   const double asked = std::max(speed, 2.0 * reference_speed);
   for (const std::size_t k : mine) {
-    if (std::abs(required_of(body, contacts[k])) > asked) return false;
+    if (std::abs(required_of(bodies, contacts[k])) > asked) return false;
   }
-  const RigidBody r = rigid_body_of(body, nodes);
+  const RigidBody r = rigid_body_of(*bodies[body].body, nodes);
   // Nodes on a line have no inertia about it (never a fragment of tets with volume).
   if (!(r.inertia.determinant() > 1e-9 * std::pow(r.inertia.trace(), 3))) return false;
   return r.kinetic - r.rigid_kinetic() <= 0.5 * r.mass * speed * speed;
-}
-
-/// One contact of the rigid answer, in its frame F (normal, two tangents).
-struct RigidContact {
-  Mat3 frame;
-  Vec3 arm;            ///< from the centre of mass to the embedded point
-  Mat3 delassus;       ///< Fᵀ (I/m − [r]× I⁻¹ [r]×) F: the point's answer to a unit impulse
-  Eigen::Matrix2d tangent_inverse;
-  Vec3 free_velocity;  ///< Fᵀ (v_a − v_b) before the answer
-  double required = 0, friction = 0, tolerance = 0, acceptable = 0;
-  Vec3 impulse = Vec3::Zero();  ///< on side a, in the frame
-};
-
-/// The sweeps' state: the rigid correction (V, Ω) the impulses so far make.
-class RigidSweeps {
- public:
-  RigidSweeps(const RigidBody& rigid, std::vector<RigidContact> contacts, double sign)
-      : m_rigid(rigid), m_contacts(std::move(contacts)), m_sign(sign) {
-    for (RigidContact& c : m_contacts) move(c, c.impulse);
-  }
-
-  void sweep() {
-    for (RigidContact& c : m_contacts) solve(c);
-  }
-
-  struct Violation {
-    bool short_of_target = false, overshoots = false, unacceptable = false;
-  };
-  [[nodiscard]] Violation violation() const {
-    Violation v;
-    for (const RigidContact& c : m_contacts) {
-      const double shortfall = c.required - change_at(c)[0];
-      v.short_of_target = v.short_of_target || shortfall > c.tolerance;
-      v.overshoots = v.overshoots || (c.impulse[0] > 0.0 && -shortfall > c.tolerance);
-      v.unacceptable = v.unacceptable || shortfall > c.acceptable;
-    }
-    return v;
-  }
-  [[nodiscard]] const std::vector<RigidContact>& contacts() const { return m_contacts; }
-  [[nodiscard]] const Vec3& velocity_change() const { return m_velocity; }
-  [[nodiscard]] const Vec3& spin_change() const { return m_spin; }
-
- private:
-  /// Fᵀ (v_a − v_b) added so far at the contact.
-  [[nodiscard]] Vec3 change_at(const RigidContact& c) const {
-    return c.frame.transpose() * (m_sign * (m_velocity + m_spin.cross(c.arm)));
-  }
-  /// The body takes ± F change on side a's impulse.
-  void move(const RigidContact& c, const Vec3& change) {
-    const Vec3 impulse = m_sign * (c.frame * change);
-    m_velocity += impulse / m_rigid.mass;
-    m_spin += m_rigid.inverse_inertia * c.arm.cross(impulse);
-  }
-  void solve(RigidContact& c) {
-    Vec3 relative = change_at(c);
-    const Vec3 before = c.impulse;
-    c.impulse[0] = std::max(0.0, c.impulse[0] + (c.required - relative[0]) / c.delassus(0, 0));
-    relative += c.delassus.col(0) * (c.impulse[0] - before[0]);
-    if (c.friction > 0.0) {
-      const Eigen::Vector2d sliding = c.free_velocity.tail<2>() + relative.tail<2>();
-      Eigen::Vector2d tangential = c.impulse.tail<2>() - c.tangent_inverse * sliding;
-      const double cone = c.friction * c.impulse[0], size = tangential.norm();
-      if (size > cone) tangential *= cone / size;
-      c.impulse.tail<2>() = tangential;
-    }
-    move(c, c.impulse - before);
-  }
-
-  const RigidBody& m_rigid;
-  std::vector<RigidContact> m_contacts;
-  double m_sign;
-  Vec3 m_velocity = Vec3::Zero(), m_spin = Vec3::Zero();
-};
-
-RigidContact rigid_contact(const ImplicitIntegrator& body, const RigidBody& rigid, const ContactConstraint& c,
-                           const ContactSettings& settings, double dt, double reference_speed) {
-  RigidContact out;
-  out.frame = contact_frame(c.normal);
-  const auto [point, velocity] = point_state(body, body_side(c));
-  out.arm = point - rigid.centre;
-  const Mat3 arm = cross_matrix(out.arm);
-  const Mat3 compliance = Mat3::Identity() / rigid.mass - arm * rigid.inverse_inertia * arm;
-  out.delassus = out.frame.transpose() * compliance * out.frame;
-  const Eigen::Matrix2d tangent = out.delassus.bottomRightCorner<2, 2>();
-  out.tangent_inverse = tangent.determinant() > 0.0 ? Eigen::Matrix2d(tangent.inverse()) : Eigen::Matrix2d::Zero();
-  out.free_velocity = out.frame.transpose() * (body_sign(c) * velocity);
-  out.required = c.target - out.free_velocity[0];
-  out.friction = c.friction;
-  // The augmented Lagrangian's rule, and never more than the debris' share of the reach
-  // per step (answer_debris in contact_response.cpp).
-  const double allowed = settings.allowed_miss(out.required, c.reach, dt, reference_speed);
-  out.acceptable = settings.acceptable_sweep_miss(allowed, c.reach, dt);
-  out.tolerance = std::min(allowed, out.acceptable);
-  out.impulse = Vec3(std::max(c.impulse, 0.0), 0.0, 0.0);
-  return out;
 }
 
 }  // namespace
@@ -215,8 +110,8 @@ std::vector<RestingFragment> resting_fragments(std::span<const CollisionBody> bo
                                                const ContactSettings& settings, double reference_speed) {
   std::vector<RestingFragment> out;
   if (!(settings.rigid_resting_speed > 0.0)) return out;
-  // (body, fragment) → its contacts; a fragment touched by anything but a static
-  // obstacle is out.
+  // (body, fragment) → its contacts; a fragment a projectile touches is out (a hit, or
+  // a ball resting on it, is answered deformably).
   std::map<std::pair<Index, Index>, std::vector<std::size_t>> candidates;
   std::map<std::pair<Index, Index>, bool> excluded;
   for (std::size_t k = 0; k < contacts.size(); ++k) {
@@ -226,7 +121,7 @@ std::vector<RestingFragment> resting_fragments(std::span<const CollisionBody> bo
       const std::pair<Index, Index> key{s->owner, fragment_of(bodies[s->owner], s->tet)};
       candidates[key].push_back(k);
       const Side other = s == &c.a ? c.b.kind : c.a.kind;
-      if (other != Side::Static) excluded[key] = true;
+      if (other == Side::Projectile) excluded[key] = true;
     }
   }
   // Each body's fragments' nodes, made once and only for a body with a candidate.
@@ -238,48 +133,35 @@ std::vector<RestingFragment> resting_fragments(std::span<const CollisionBody> bo
     const std::vector<NodeIndex>& nodes = nodes_of[key.first][key.second];
     if (nodes.size() <= static_cast<std::size_t>(settings.dense_fragment_nodes)) continue;
     if (std::any_of(nodes.begin(), nodes.end(), [&](NodeIndex n) { return b.body->pinned(n); })) continue;
-    RestingFragment f{.body = key.first, .nodes = nodes, .contacts = std::move(mine)};
-    if (!at_rest(*b.body, f.nodes, contacts, f.contacts, settings.rigid_resting_speed, reference_speed)) continue;
-    out.push_back(std::move(f));
+    if (!at_rest(bodies, key.first, nodes, contacts, mine, settings.rigid_resting_speed, reference_speed)) continue;
+    out.push_back({.body = key.first, .nodes = nodes});
   }
   return out;
 }
 
-RigidAnswer answer_as_rigid(const RestingFragment& fragment, CollisionBody& body,
-                            std::span<ContactConstraint> contacts, const ContactSettings& settings, double dt,
-                            double reference_speed) {
-  ImplicitIntegrator& integrator = *body.body;
-  const RigidBody rigid = rigid_body_of(integrator, fragment.nodes);
-  std::vector<RigidContact> rows;
-  rows.reserve(fragment.contacts.size());
-  bool any_friction = false;
-  for (const std::size_t k : fragment.contacts) {
-    rows.push_back(rigid_contact(integrator, rigid, contacts[k], settings, dt, reference_speed));
-    any_friction = any_friction || contacts[k].friction > 0.0;
+std::vector<RigidGroup> rigid_groups(std::span<const CollisionBody> bodies, std::span<const RestingFragment> resting,
+                                     const JointSystem& system) {
+  std::vector<RigidGroup> out;
+  for (const RestingFragment& f : resting) {
+    const Eigen::Index offset = system.body_offset(static_cast<std::size_t>(f.body));
+    if (offset < 0) continue;
+    const ImplicitIntegrator& body = *bodies[f.body].body;
+    const RigidBody rigid = rigid_body_of(body, f.nodes);
+    // The joint system's mass is the body's system's, m_scale M (mass damping), so that a
+    // rigid δ carries exactly its impulses there too (JointSystem::apply).
+    const double scale = body.system_mass_scale();
+    RigidGroup group;
+    group.mass = scale * rigid.mass;
+    group.inverse_inertia = rigid.inverse_inertia / scale;
+    group.rows.reserve(f.nodes.size());
+    group.arms.reserve(f.nodes.size());
+    for (const NodeIndex n : f.nodes) {
+      group.rows.push_back(offset + static_cast<Eigen::Index>(body.system_row(n)));
+      group.arms.push_back(body.positions().col(n) - rigid.centre);
+    }
+    out.push_back(std::move(group));
   }
-  // Every contact is with a static obstacle, so the body is on the same side of each:
-  // the sign of the first holds for all.
-  const double sign = body_sign(contacts[fragment.contacts.front()]);
-  RigidSweeps sweeps(rigid, std::move(rows), sign);
-  RigidAnswer answer;
-  for (int s = 0; s < settings.sequential_impulse_sweeps; ++s) {
-    sweeps.sweep();
-    ++answer.sweeps;
-    const RigidSweeps::Violation v = sweeps.violation();
-    answer.acceptable = !v.unacceptable;
-    if (!v.short_of_target && !v.overshoots && (!any_friction || s >= 1)) break;
-  }
-  if (!answer.acceptable) return answer;
-  Eigen::VectorXd delta = Eigen::VectorXd::Zero(integrator.system_size());
-  for (const NodeIndex n : fragment.nodes) {
-    const Vec3 arm = integrator.positions().col(n) - rigid.centre;
-    delta.segment<3>(integrator.system_row(n)) = sweeps.velocity_change() + sweeps.spin_change().cross(arm);
-  }
-  integrator.correct_velocities(delta, dt);
-  for (std::size_t i = 0; i < fragment.contacts.size(); ++i) {
-    contacts[fragment.contacts[i]].impulse = sweeps.contacts()[i].impulse[0];
-  }
-  return answer;
+  return out;
 }
 
 }  // namespace fissure::sim::contact_detail

@@ -10,10 +10,17 @@ namespace fissure::sim::contact_detail {
 
 namespace {
 
+Mat3 cross_matrix(const Vec3& v) {
+  Mat3 m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
 class SequentialImpulses {
  public:
-  SequentialImpulses(JointSystem& system, const BlockJacobi& blocks)
-      : m_system(system), m_rows(system.rows()), m_blocks(blocks) {
+  SequentialImpulses(JointSystem& system, const BlockJacobi& blocks, std::span<const RigidGroup> rigid)
+      : m_system(system), m_rows(system.rows()), m_blocks(blocks), m_rigid(rigid) {
+    place_rigid_groups();
     place_groups();
     m_contacts.resize(m_rows.size());
     std::size_t answers = 0;
@@ -62,6 +69,14 @@ class SequentialImpulses {
         out.delta.segment<3>(rows[i]) = m_local.segment<3>(m_group_start[g] + 3 * static_cast<Eigen::Index>(i));
       }
     }
+    for (std::size_t r = 0; r < m_rigid.size(); ++r) {
+      if (!m_rigid_touched[r]) continue;
+      ++out.rigid_groups_moved;
+      const RigidGroup& group = m_rigid[r];
+      for (std::size_t i = 0; i < group.rows.size(); ++i) {
+        out.delta.segment<3>(group.rows[i]) = m_rigid_velocity[r] + m_rigid_spin[r].cross(group.arms[i]);
+      }
+    }
     out.forces.resize(m_rows.size());
     for (std::size_t k = 0; k < m_rows.size(); ++k) {
       out.forces[k] = m_contacts[k].frame * m_contacts[k].impulse;
@@ -82,16 +97,36 @@ class SequentialImpulses {
     Eigen::Index first = 0, rows = 0;
     std::size_t answer = 0;
   };
+  /// A side on a rigid group: it reads s V + Ω × a, with s = Σ wₑ, a = Σ wₑ rₑ.
+  struct RigidSide {
+    std::size_t group = 0;
+    double weight = 0.0;
+    Vec3 arm = Vec3::Zero();
+  };
   struct Contact {
     std::array<Reach, 8> reach{};
     int count = 0;
     std::array<Response, 2> responses;  ///< a side is one fragment or projectile: two groups at most
     int response_count = 0;
+    std::array<RigidSide, 2> rigid_sides;
+    int rigid_count = 0;
     Mat3 frame, delassus;
     Eigen::Matrix2d tangent_inverse;  ///< the tangential corner of the Delassus block, inverted
     Vec3 free_velocity;  ///< in the frame
     Vec3 impulse;        ///< in the frame
   };
+
+  /// Each rigid group's node by its first row; the groups start at rest.
+  void place_rigid_groups() {
+    m_rigid_node.assign(static_cast<std::size_t>(m_system.size() / 3), {kNotRigid, 0});
+    for (std::size_t r = 0; r < m_rigid.size(); ++r) {
+      for (std::size_t i = 0; i < m_rigid[r].rows.size(); ++i) m_rigid_node[m_rigid[r].rows[i] / 3] = {r, i};
+    }
+    m_rigid_velocity.assign(m_rigid.size(), Vec3::Zero());
+    m_rigid_spin.assign(m_rigid.size(), Vec3::Zero());
+    m_rigid_touched.assign(m_rigid.size(), false);
+  }
+  [[nodiscard]] bool is_rigid(Eigen::Index row) const { return m_rigid_node[row / 3].first != kNotRigid; }
 
   /// m_local holds δ on the groups the rows touch, each group's rows together.
   void place_groups() {
@@ -99,6 +134,7 @@ class SequentialImpulses {
     Eigen::Index size = 0;
     for (const Row& row : m_rows) {
       for (int e = 0; e < row.count; ++e) {
+        if (is_rigid(row.entries[e].row)) continue;
         const Index g = m_blocks.group_of(row.entries[e].row);
         if (m_group_start[g] >= 0) continue;
         m_group_start[g] = size;
@@ -115,6 +151,10 @@ class SequentialImpulses {
     Contact& c = m_contacts[k];
     std::size_t size = 0;
     for (int e = 0; e < row.count; ++e) {
+      if (is_rigid(row.entries[e].row)) {
+        add_rigid_entry(c, row.entries[e]);
+        continue;
+      }
       const Index g = m_blocks.group_of(row.entries[e].row);
       c.reach[c.count++] = {m_group_start[g] + 3 * static_cast<Eigen::Index>(m_blocks.place_in_group(row.entries[e].row)),
                             row.entries[e].weight};
@@ -122,11 +162,24 @@ class SequentialImpulses {
       if (c.response_count > 1 && c.responses[1].first == m_group_start[g]) continue;
       const auto rows = 3 * static_cast<Eigen::Index>(m_blocks.group_rows(g).size());
       // Each side is one tet (or projectile) in one sealed block (JointSystem::sealed_groups).
-      FISSURE_ASSERT(c.response_count < 2);
+      FISSURE_ASSERT(c.response_count + c.rigid_count < 2);
       c.responses[c.response_count++] = {g, m_group_start[g], rows, start + size};
       size += 3 * static_cast<std::size_t>(rows);
     }
     return size;
+  }
+
+  void add_rigid_entry(Contact& c, const Entry& entry) {
+    const auto [group, node] = m_rigid_node[entry.row / 3];
+    m_rigid_touched[group] = true;
+    int side = 0;
+    while (side < c.rigid_count && c.rigid_sides[side].group != group) ++side;
+    if (side == c.rigid_count) {
+      FISSURE_ASSERT(c.response_count + c.rigid_count < 2);
+      c.rigid_sides[c.rigid_count++] = {group, 0.0, Vec3::Zero()};
+    }
+    c.rigid_sides[side].weight += entry.weight;
+    c.rigid_sides[side].arm += entry.weight * m_rigid[group].arms[node];
   }
 
   /// 𝒜_g⁻¹ G_gᵀ F = Σ_e w_e (𝒜_g⁻¹'s three columns at node e) F per side, from the
@@ -153,6 +206,14 @@ class SequentialImpulses {
         c.delassus.noalias() += c.reach[e].weight * c.frame.transpose() * answer.middleRows<3>(local);
       }
     }
+    for (int s = 0; s < c.rigid_count; ++s) {
+      const RigidSide& side = c.rigid_sides[s];
+      const RigidGroup& group = m_rigid[side.group];
+      const Mat3 arm = cross_matrix(side.arm);
+      const Mat3 compliance =
+          (side.weight * side.weight / group.mass) * Mat3::Identity() - arm * group.inverse_inertia * arm;
+      c.delassus.noalias() += c.frame.transpose() * compliance * c.frame;
+    }
     const Eigen::Matrix2d tangent = c.delassus.bottomRightCorner<2, 2>();
     c.tangent_inverse = tangent.determinant() > 0.0 ? Eigen::Matrix2d(tangent.inverse()) : Eigen::Matrix2d::Zero();
   }
@@ -161,6 +222,10 @@ class SequentialImpulses {
   [[nodiscard]] Vec3 relative_change(const Contact& c) const {
     Vec3 g = Vec3::Zero();
     for (int e = 0; e < c.count; ++e) g += c.reach[e].weight * m_local.segment<3>(c.reach[e].local);
+    for (int s = 0; s < c.rigid_count; ++s) {
+      const RigidSide& side = c.rigid_sides[s];
+      g += side.weight * m_rigid_velocity[side.group] + m_rigid_spin[side.group].cross(side.arm);
+    }
     return c.frame.transpose() * g;
   }
 
@@ -189,6 +254,14 @@ class SequentialImpulses {
       const Response& r = c.responses[s];
       m_local.segment(r.first, r.rows).noalias() += answer_of(r).lazyProduct(change);
     }
+    if (c.rigid_count == 0) return;
+    const Vec3 impulse = c.frame * change;
+    for (int s = 0; s < c.rigid_count; ++s) {
+      const RigidSide& side = c.rigid_sides[s];
+      const RigidGroup& group = m_rigid[side.group];
+      m_rigid_velocity[side.group] += (side.weight / group.mass) * impulse;
+      m_rigid_spin[side.group] += group.inverse_inertia * side.arm.cross(impulse);
+    }
   }
 
   void solve_contact(std::size_t k) {
@@ -214,6 +287,11 @@ class SequentialImpulses {
   JointSystem& m_system;
   std::vector<Row>& m_rows;
   const BlockJacobi& m_blocks;
+  std::span<const RigidGroup> m_rigid;
+  static constexpr std::size_t kNotRigid = static_cast<std::size_t>(-1);
+  std::vector<std::pair<std::size_t, std::size_t>> m_rigid_node;  ///< per node: its rigid group and place, or kNotRigid
+  std::vector<Vec3> m_rigid_velocity, m_rigid_spin;                ///< per rigid group: V, Ω so far
+  std::vector<bool> m_rigid_touched;
   std::vector<Eigen::Index> m_group_start;  ///< per group, its first row in m_local (−1: untouched)
   Eigen::VectorXd m_local;
   std::vector<Contact> m_contacts;
@@ -226,10 +304,11 @@ class SequentialImpulses {
 
 }  // namespace
 
-SequentialImpulsesAnswer solve_by_sequential_impulses(JointSystem& system, std::span<const double> tolerance,
+SequentialImpulsesAnswer solve_by_sequential_impulses(JointSystem& system, std::span<const RigidGroup> rigid,
+                                                      std::span<const double> tolerance,
                                                       std::span<const double> acceptable, int max_sweeps) {
   SequentialImpulsesAnswer out;
-  SequentialImpulses solver(system, system.factor_base_blocks());
+  SequentialImpulses solver(system, system.factor_base_blocks(), rigid);
   const bool any_friction =
       std::any_of(system.rows().begin(), system.rows().end(), [](const Row& r) { return r.friction > 0.0; });
   for (int sweep = 0; sweep < max_sweeps; ++sweep) {

@@ -21,6 +21,13 @@
 /// Serial, in row order: the answer does not depend on the thread count. Momentum is
 /// exact to rounding: each block answers exactly the impulses it received (its
 /// stiffness has no net force), so the caller's momentum shift is only rounding.
+///
+/// A large fragment at rest can take part as a rigid group (rigid_response.h): its six
+/// unknowns (V, Ω) stand for its nodes' δᵢ = V + Ω × rᵢ, a contact's side on it reads
+/// s V + Ω × a (s = Σ wₑ, a = Σ wₑ rₑ over the side's entries), and an impulse p on
+/// that side moves it by ΔV = s p / m, ΔΩ = I⁻¹ (a × p): the Delassus block of a rigid
+/// body, s²/m − [a]× I⁻¹ [a]×, as Box2D and Jolt solve a body's contacts. A rigid δ
+/// changes only the fragment's rigid kinetic energy and carries exactly its impulses.
 
 #include <span>
 #include <vector>
@@ -29,6 +36,14 @@
 
 namespace fissure::sim::contact_detail {
 
+/// A fragment the sweeps move rigidly: mass and inertia from its lumped node masses.
+struct RigidGroup {
+  std::vector<Eigen::Index> rows;  ///< each free node's first row in the system
+  std::vector<Vec3> arms;          ///< each node's position less the centre of mass
+  double mass = 0.0;
+  Mat3 inverse_inertia = Mat3::Zero();  ///< about the centre of mass
+};
+
 struct SequentialImpulsesAnswer {
   Eigen::VectorXd delta;      ///< the correction, over the system's unknowns
   std::vector<Vec3> forces;   ///< each row's impulse as a vector [N s]
@@ -36,15 +51,18 @@ struct SequentialImpulsesAnswer {
   double largest_violation = 0.0;  ///< max_k (target_k − n · v_rel) after the answer [m/s]
   bool met = false;                ///< the stopping rule held before the cap
   bool acceptable = false;         ///< no contact misses its target by more than `acceptable` says
+  int rigid_groups_moved = 0;      ///< rigid groups a contact touched
 };
 
-/// Needs every row to read only sealed dense blocks (JointSystem::sealed_groups): each
-/// side's answer to an impulse is then its block's inverse exactly. Updates each row's λ (its normal impulse),
+/// Needs every row to read only sealed dense blocks (JointSystem::sealed_groups) or
+/// rigid groups: each side's answer to an impulse is then its block's inverse exactly,
+/// or its rigid body's. Updates each row's λ (its normal impulse),
 /// starting from it (warm start). The sweeps stop once no contact misses its target by
 /// more than its `tolerance`, nor pushes while separating faster than that (the
 /// augmented Lagrangian's rule, contact_response.cpp), or at `max_sweeps`; then the
 /// answer is `acceptable` if no contact misses its target by more than that.
-SequentialImpulsesAnswer solve_by_sequential_impulses(JointSystem& system, std::span<const double> tolerance,
+SequentialImpulsesAnswer solve_by_sequential_impulses(JointSystem& system, std::span<const RigidGroup> rigid,
+                                                      std::span<const double> tolerance,
                                                       std::span<const double> acceptable, int max_sweeps);
 
 }  // namespace fissure::sim::contact_detail
