@@ -161,7 +161,7 @@ struct SceneSolverSettings {
   /// Lagrangian, the answer of every response before
   /// (docs/decisions/0072-sequential-impulses-for-debris.md).
   int contact_sweeps = 16;
-  /// A large fragment at rest on static obstacles (its contacts asking for at most this
+  /// A large fragment at rest, no projectile on it (its contacts asking for at most this
   /// velocity change, or twice one step of gravity where that is more, its motion rigid
   /// to within it) has its contacts answered as a rigid body's, 0 … 10 [m/s]
   /// (sim::ContactSettings::rigid_resting_speed); 0 = never, every fragment deformable

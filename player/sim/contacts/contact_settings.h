@@ -119,9 +119,10 @@ struct ContactSettings {
   double sequential_impulse_reach_share = 0.25;
 
   // --- Resting large fragments (rigid_response.cpp) ----------------------------------
-  /// A large fragment whose every contact is with a static obstacle, asks for at most
-  /// this velocity change [m/s] (or twice one step of gravity, |g| h, where that is
-  /// more), and whose motion is rigid to within it, is answered as a rigid body
+  /// A large fragment that no projectile touches, whose contacts (with obstacles or other
+  /// fragments) ask for at most this velocity change [m/s] (or twice one step of
+  /// gravity, 2 |g| h, where that is more), and whose motion is rigid to within it, is
+  /// answered as a rigid body
   /// (rigid_response.h); 0: never, every response deformable (the thesis's model). On
   /// the sample with fracture off 0.2 halved the step
   /// (docs/decisions/0073-rigid-answers-at-rest.md).
