@@ -216,5 +216,30 @@ TEST(RigidResponse, DebrisOnAPieceAtRestIsAnsweredWithThePieceRigid) {
   EXPECT_LE(gain, 1e-9);
 }
 
+// A ball dropped at 5 m/s on the pebble reaches the block through it in the same answer:
+// the island holds a hit, so the block is answered deformably in the steps the ball
+// touches the pebble (it could break there), and rigidly again once they have passed.
+TEST(RigidResponse, AHitOnDebrisLyingOnAPieceAtRestFindsThePieceDeformable) {
+  testing::SceneParts scene = pebble_on_block(0.2);
+  scene.projectiles.push_back(Projectile{.position = Vec3(0.1, 0.1, 0.36), .velocity = Vec3(0, 0, -5), .radius = 0.03,
+                                         .mass = 0.5, .launch_time = 0.125, .material = {}});
+  const auto world = scene.make();
+  int hit_steps = 0, rigid_in_hit_steps = 0, rigid_after = 0;
+  for (int i = 0; i < 120; ++i) {
+    const Vec3 before = world->projectiles()[0].velocity;
+    const StepReport report = world->step();
+    ASSERT_TRUE(report.status.ok()) << "step " << i;
+    const bool hit = world->projectiles()[0].launched && (world->projectiles()[0].velocity - before).norm() > 0.5;
+    hit_steps += hit ? 1 : 0;
+    rigid_in_hit_steps += hit ? report.contacts.rigid_answers : 0;
+    if (hit_steps > 0 && !hit) rigid_after += report.contacts.rigid_answers;
+  }
+  std::printf("ball on the pebble: %d hit steps, %d rigid answers in them, %d after\n", hit_steps, rigid_in_hit_steps,
+              rigid_after);
+  EXPECT_GE(hit_steps, 1);
+  EXPECT_EQ(rigid_in_hit_steps, 0);
+  EXPECT_GE(rigid_after, 20);
+}
+
 }  // namespace
 }  // namespace fissure::sim

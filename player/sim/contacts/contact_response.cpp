@@ -267,7 +267,7 @@ void answer_debris(JointSystem& system, std::span<const contact_detail::RigidGro
   if (answer.acceptable) {
     report.rigid_answers += answer.rigid_groups_moved;
     report.largest_violation = std::max(report.largest_violation, answer.largest_violation);
-    system.apply(answer.delta, answer.forces, settings.dt);
+    system.apply_exact(answer.delta, answer.forces, settings.dt);
     return;
   }
   // The augmented Lagrangian starts from the last step's impulses, not the sweeps':
@@ -291,9 +291,12 @@ bool touches_dense_blocks(const JointSystem& system) {
 /// (JointSystem::sealed_groups) and rigid groups, so the sequential impulses can answer
 /// it. The other large fragments (and any block a tet joins to another) all count as one
 /// piece: every contact that touches one goes to the augmented Lagrangian, with
-/// everything joined to it.
+/// everything joined to it. So does an island with a resting fragment that something in
+/// it hits (a projectile's contact, or one asking more than rigid_asked_speed): a ball
+/// on a pebble that lies on a resting piece reaches the piece through the pebble in the
+/// same answer, and must find it deformable, free to break.
 std::vector<bool> debris_contacts(const JointSystem& system, std::span<const contact_detail::RigidGroup> rigid,
-                                  std::size_t contact_count) {
+                                  std::span<const ContactConstraint> contacts, const ContactResponseSettings& settings) {
   const BlockJacobi& blocks = system.blocks();
   const std::vector<bool> sealed = system.sealed_groups();
   const Index large = blocks.group_count();
@@ -316,8 +319,24 @@ std::vector<bool> debris_contacts(const JointSystem& system, std::span<const con
   for (const Row& row : system.rows()) {
     for (int e = 1; e < row.count; ++e) parent[root(unit(row.entries[e]))] = root(unit(row.entries[0]));
   }
-  std::vector<bool> debris(contact_count, false);
-  for (std::size_t k = 0; k < contact_count; ++k) {
+  if (!rigid.empty()) {
+    // An island holding a resting fragment and a hit joins the large piece.
+    const double asked = settings.contacts.rigid_asked_speed(settings.reference_speed);
+    std::vector<bool> hit(parent.size(), false), holds_rigid(parent.size(), false);
+    for (std::size_t k = 0; k < contacts.size(); ++k) {
+      const Index r = system.row_of(k);
+      if (r == kInvalidIndex) continue;
+      const bool projectile = contacts[k].a.kind == ContactSide::Kind::Projectile ||
+                              contacts[k].b.kind == ContactSide::Kind::Projectile;
+      if (projectile || std::abs(system.rows()[r].required) > asked) hit[root(unit(system.rows()[r].entries[0]))] = true;
+    }
+    for (std::size_t r = 0; r < rigid.size(); ++r) holds_rigid[root(large + 1 + static_cast<Index>(r))] = true;
+    for (Index u = 0; u < static_cast<Index>(parent.size()); ++u) {
+      if (parent[u] == u && hit[u] && holds_rigid[u]) parent[u] = root(large);
+    }
+  }
+  std::vector<bool> debris(contacts.size(), false);
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
     const Index r = system.row_of(k);
     if (r != kInvalidIndex) debris[k] = root(unit(system.rows()[r].entries[0])) != root(large);
   }
@@ -338,7 +357,7 @@ void respond(std::span<CollisionBody> bodies, std::span<Projectile> projectiles,
   }
   // A contact without a row (nothing it touches can move) counts as neither.
   const std::vector<contact_detail::RigidGroup> rigid = contact_detail::rigid_groups(bodies, resting, system);
-  const std::vector<bool> debris = debris_contacts(system, rigid, contacts.size());
+  const std::vector<bool> debris = debris_contacts(system, rigid, contacts, settings);
   const auto debris_count = static_cast<std::size_t>(std::count(debris.begin(), debris.end(), true));
   if (debris_count == system.rows().size() || debris_count == 0) {
     if (debris_count == 0) {

@@ -140,6 +140,11 @@ struct ContactSettings {
   [[nodiscard]] double acceptable_sweep_miss(double allowed, double reach, double dt) const {
     return reach > 0.0 ? sequential_impulse_reach_share * reach / dt : allowed;
   }
+  /// The most a contact may ask [m/s] of a response that answers a fragment rigidly:
+  /// rigid_resting_speed, or 2 |g| h (`reference_speed` is |g| h) where that is more.
+  [[nodiscard]] double rigid_asked_speed(double reference_speed) const {
+    return std::max(rigid_resting_speed, 2.0 * reference_speed);
+  }
 };
 
 }  // namespace fissure::sim

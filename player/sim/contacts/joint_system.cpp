@@ -71,6 +71,7 @@ bool JointSystem::use_sparse_blocks() {
 std::vector<bool> JointSystem::sealed_groups() const {
   const Index outside = m_blocks.group_count();  // a free node in no dense block
   std::vector<bool> sealed(static_cast<std::size_t>(outside), true);
+  if (outside == 0) return sealed;  // no block to seal: skip the pass over every tet
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
     if (m_body_offset[bi] < 0) continue;
     const ImplicitIntegrator& body = *m_bodies[bi].body;
@@ -171,6 +172,20 @@ void JointSystem::apply(const Eigen::VectorXd& delta, const std::vector<Vec3>& f
     const Eigen::Index n = m_bodies[bi].body->system_size();
     const Eigen::VectorXd d = delta.segment(m_body_offset[bi], n) + m_shift.segment(m_body_offset[bi], n);
     m_bodies[bi].body->correct_velocities(d, h);
+  }
+  for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
+    if (m_projectile_offset[j] >= 0) {
+      m_projectiles[j].velocity += m_net.segment<3>(m_projectile_offset[j]) / m_projectiles[j].mass;
+    }
+  }
+}
+
+void JointSystem::apply_exact(const Eigen::VectorXd& delta, const std::vector<Vec3>& forces, double h) {
+  m_net.setZero(m_size);
+  for (std::size_t k = 0; k < m_rows.size(); ++k) m_rows[k].scatter(forces[k], m_net);
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
+    if (m_body_offset[bi] < 0) continue;
+    m_bodies[bi].body->correct_velocities(delta.segment(m_body_offset[bi], m_bodies[bi].body->system_size()), h);
   }
   for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
     if (m_projectile_offset[j] >= 0) {

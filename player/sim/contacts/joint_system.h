@@ -134,6 +134,12 @@ class JointSystem {
   /// shifted so that together they gain exactly the impulses they received),
   /// projectiles take exactly their impulses.
   void apply(const Eigen::VectorXd& delta, const std::vector<Vec3>& forces, double h);
+  /// Applies a correction that already gains exactly the impulses `forces` (sequential
+  /// impulses: each dense block's δ is its inverse times its impulses, each rigid group's
+  /// carries them as a rigid body's), with no momentum shift: the shift would be rounding,
+  /// and finding it costs a product with every touched body's whole system. Projectiles
+  /// take their impulses as in apply().
+  void apply_exact(const Eigen::VectorXd& delta, const std::vector<Vec3>& forces, double h);
 
   /// What apply() adds to a correction δ whose 𝒜δ is `mass_delta`, for the contact
   /// forces `forces`: on each body, the rigid shift of balance_fragments on the nodes it

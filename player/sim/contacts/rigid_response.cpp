@@ -91,9 +91,9 @@ double required_of(std::span<const CollisionBody> bodies, const ContactConstrain
 /// sum of the two: at 1/240 s that answered the 10,024-tet bunny rigidly in 126 of 480
 /// steps against 185, with 1.7× the conjugate gradients (one run each).
 bool at_rest(std::span<const CollisionBody> bodies, Index body, std::span<const NodeIndex> nodes,
-             std::span<const ContactConstraint> contacts, std::span<const std::size_t> mine, double speed,
-             double reference_speed) {
-  const double asked = std::max(speed, 2.0 * reference_speed);
+             std::span<const ContactConstraint> contacts, std::span<const std::size_t> mine,
+             const ContactSettings& settings, double reference_speed) {
+  const double asked = settings.rigid_asked_speed(reference_speed), speed = settings.rigid_resting_speed;
   for (const std::size_t k : mine) {
     if (std::abs(required_of(bodies, contacts[k])) > asked) return false;
   }
@@ -133,7 +133,7 @@ std::vector<RestingFragment> resting_fragments(std::span<const CollisionBody> bo
     const std::vector<NodeIndex>& nodes = nodes_of[key.first][key.second];
     if (nodes.size() <= static_cast<std::size_t>(settings.dense_fragment_nodes)) continue;
     if (std::any_of(nodes.begin(), nodes.end(), [&](NodeIndex n) { return b.body->pinned(n); })) continue;
-    if (!at_rest(bodies, key.first, nodes, contacts, mine, settings.rigid_resting_speed, reference_speed)) continue;
+    if (!at_rest(bodies, key.first, nodes, contacts, mine, settings, reference_speed)) continue;
     out.push_back({.body = key.first, .nodes = nodes});
   }
   return out;

@@ -20,7 +20,8 @@
 /// may miss, and none pushing while it separates faster than asked), or at the cap.
 /// Serial, in row order: the answer does not depend on the thread count. Momentum is
 /// exact to rounding: each block answers exactly the impulses it received (its
-/// stiffness has no net force), so the caller's momentum shift is only rounding.
+/// stiffness has no net force), so the caller applies the answer without a momentum
+/// shift (JointSystem::apply_exact).
 ///
 /// A large fragment at rest can take part as a rigid group (rigid_response.h): its six
 /// unknowns (V, Ω) stand for its nodes' δᵢ = V + Ω × rᵢ, a contact's side on it reads
