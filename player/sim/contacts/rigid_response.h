@@ -22,7 +22,8 @@
 /// more: holding it up asks |g| h), and its motion is rigid to within that speed (its
 /// kinetic energy beyond the rigid part at most ½ m s²). Anything faster, an impact or
 /// a hit, is answered with the fragment deformable, so it can still break; so is a
-/// resting fragment whose contacts join it to a fragment that is not at rest.
+/// resting fragment whose contacts join it to a fragment that is not at rest, or to a hit
+/// (contact_response.cpp's debris_contacts).
 
 #include <span>
 #include <vector>
