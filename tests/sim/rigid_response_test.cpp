@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <memory>
 
 #include "player/sim/world.h"
 #include "tests/support/procedural.h"
@@ -136,6 +137,30 @@ double top_height(const World& world) {
   return (b.positions() * b.node_masses() / b.node_masses().sum()).z();
 }
 
+/// The all-deformable and the rigid-at-rest world of a scene, stepped side by side.
+struct SideBySide {
+  std::unique_ptr<World> deformable, rigid;
+  std::size_t rigid_answers = 0;  ///< the rigid world's, from step `count_from` on
+  double deepest = 0;             ///< [m] the rigid world's deepest sphere in the ground
+  double highest_gain = 0;        ///< [J] the most the rigid world's energy stood above its start
+};
+
+SideBySide settle_side_by_side(testing::SceneParts (*scene)(double resting_speed), int steps, int count_from) {
+  SideBySide out;
+  out.deformable = scene(0.0).make();
+  out.rigid = scene(0.2).make();
+  const double start = out.rigid->total_energy();
+  for (int i = 0; i < steps; ++i) {
+    EXPECT_TRUE(out.deformable->step().status.ok()) << "step " << i;
+    const StepReport report = out.rigid->step();
+    EXPECT_TRUE(report.status.ok()) << "step " << i;
+    if (i >= count_from) out.rigid_answers += report.contacts.rigid_answers;
+    out.deepest = std::max(out.deepest, out.rigid->sphere_penetration());
+    out.highest_gain = std::max(out.highest_gain, out.rigid->total_energy() - start);
+  }
+  return out;
+}
+
 // A block resting on another is a rigid body on a rigid body: both are answered in one
 // problem of sequential impulses, each a rigid group (sequential_impulses.h). Once the
 // top block has landed (30 steps in), both are answered rigidly in nearly every step of
@@ -144,28 +169,16 @@ double top_height(const World& world) {
 // lower block carries the upper's weight too), no sphere sinks deeper than 0.1 mm and
 // no energy is gained.
 TEST(RigidResponse, AStackAtRestIsAnsweredAsTwoRigidBodies) {
-  const auto deformable = stack(0.0).make();
-  const auto rigid = stack(0.2).make();
-  const double start = rigid->total_energy();
-  std::size_t answers = 0;
-  double deepest = 0.0, gain = 0.0;
-  for (int i = 0; i < 120; ++i) {
-    ASSERT_TRUE(deformable->step().status.ok());
-    const StepReport report = rigid->step();
-    ASSERT_TRUE(report.status.ok()) << "step " << i;
-    if (i >= 30) answers += report.contacts.rigid_answers;
-    deepest = std::max(deepest, rigid->sphere_penetration());
-    gain = std::max(gain, rigid->total_energy() - start);
-  }
+  const SideBySide s = settle_side_by_side(stack, 120, 30);
   std::printf("stack at rest, 90 steps: rigid answers %zu; top centre %.6f m against %.6f m deformable; deepest "
               "sphere %.3g mm\n",
-              answers, top_height(*rigid), top_height(*deformable), 1e3 * deepest);
-  EXPECT_GE(answers, 160u);
+              s.rigid_answers, top_height(*s.rigid), top_height(*s.deformable), 1e3 * s.deepest);
+  EXPECT_GE(s.rigid_answers, 160u);
   const double sag = 3.0 * 1000.0 * 9.81 * 0.2 * 0.2 / (2.0 * 2e7);
-  EXPECT_GE(top_height(*rigid), top_height(*deformable) - 1e-4);
-  EXPECT_LE(top_height(*rigid), top_height(*deformable) + sag);
-  EXPECT_LE(deepest, 1e-4);
-  EXPECT_LE(gain, 1e-9);
+  EXPECT_GE(top_height(*s.rigid), top_height(*s.deformable) - 1e-4);
+  EXPECT_LE(top_height(*s.rigid), top_height(*s.deformable) + sag);
+  EXPECT_LE(s.deepest, 1e-4);
+  EXPECT_LE(s.highest_gain, 1e-9);
 }
 
 /// An 8 cm pebble of 64 nodes (a small body: an exact block) 1 mm over the block.
@@ -194,26 +207,14 @@ double pebble_gap(const World& world) {
 // most), the pebble rests where the deformable answer leaves it (within 0.5 mm), no
 // sphere sinks deeper than 0.1 mm into the ground and no energy is gained.
 TEST(RigidResponse, DebrisOnAPieceAtRestIsAnsweredWithThePieceRigid) {
-  const auto deformable = pebble_on_block(0.0).make();
-  const auto rigid = pebble_on_block(0.2).make();
-  const double start = rigid->total_energy();
-  std::size_t answers = 0;
-  double deepest = 0.0, gain = 0.0;
-  for (int i = 0; i < 120; ++i) {
-    ASSERT_TRUE(deformable->step().status.ok());
-    const StepReport report = rigid->step();
-    ASSERT_TRUE(report.status.ok()) << "step " << i;
-    if (i >= 30) answers += report.contacts.rigid_answers;
-    deepest = std::max(deepest, rigid->sphere_penetration());
-    gain = std::max(gain, rigid->total_energy() - start);
-  }
+  const SideBySide s = settle_side_by_side(pebble_on_block, 120, 30);
   std::printf("pebble on a block, 90 steps: rigid answers %zu; the pebble's gap %.3f mm against %.3f mm deformable; "
               "deepest sphere %.3g mm\n",
-              answers, 1e3 * pebble_gap(*rigid), 1e3 * pebble_gap(*deformable), 1e3 * deepest);
-  EXPECT_GE(answers, 80u);
-  EXPECT_NEAR(pebble_gap(*rigid), pebble_gap(*deformable), 5e-4);
-  EXPECT_LE(deepest, 1e-4);
-  EXPECT_LE(gain, 1e-9);
+              s.rigid_answers, 1e3 * pebble_gap(*s.rigid), 1e3 * pebble_gap(*s.deformable), 1e3 * s.deepest);
+  EXPECT_GE(s.rigid_answers, 80u);
+  EXPECT_NEAR(pebble_gap(*s.rigid), pebble_gap(*s.deformable), 5e-4);
+  EXPECT_LE(s.deepest, 1e-4);
+  EXPECT_LE(s.highest_gain, 1e-9);
 }
 
 // A ball dropped at 5 m/s on the pebble reaches the block through it in the same answer:

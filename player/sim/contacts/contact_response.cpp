@@ -286,59 +286,93 @@ bool touches_dense_blocks(const JointSystem& system) {
   });
 }
 
+/// Union–find over the units a contact row can touch.
+class Islands {
+ public:
+  explicit Islands(std::size_t units) : m_parent(units) { std::iota(m_parent.begin(), m_parent.end(), Index{0}); }
+  Index root(Index u) {
+    while (m_parent[u] != u) u = m_parent[u] = m_parent[m_parent[u]];
+    return u;
+  }
+  void join(Index u, Index v) { m_parent[root(u)] = root(v); }
+  [[nodiscard]] std::size_t size() const { return m_parent.size(); }
+
+ private:
+  std::vector<Index> m_parent;
+};
+
+/// Each entry's unit: its dense block if sealed, its rigid group, or else the one large piece.
+class RowUnits {
+ public:
+  RowUnits(const JointSystem& system, std::span<const contact_detail::RigidGroup> rigid)
+      : m_blocks(system.blocks()), m_sealed(system.sealed_groups()), m_large(m_blocks.group_count()),
+        m_rigid_unit(static_cast<std::size_t>(system.size() / 3), kInvalidIndex) {
+    for (std::size_t r = 0; r < rigid.size(); ++r) {
+      for (const Eigen::Index row : rigid[r].rows) m_rigid_unit[row / 3] = rigid_unit(r);
+    }
+  }
+  /// Units: the dense blocks, then the one large piece, then the rigid groups.
+  [[nodiscard]] std::size_t count(std::size_t rigid_groups) const {
+    return static_cast<std::size_t>(m_large) + 1 + rigid_groups;
+  }
+  [[nodiscard]] Index large() const { return m_large; }
+  [[nodiscard]] Index rigid_unit(std::size_t r) const { return m_large + 1 + static_cast<Index>(r); }
+  [[nodiscard]] Index of(const contact_detail::Entry& e) const {
+    if (m_rigid_unit[e.row / 3] != kInvalidIndex) return m_rigid_unit[e.row / 3];
+    const Index g = m_blocks.group_of(e.row);
+    return g == kInvalidIndex || !m_sealed[g] ? m_large : g;
+  }
+  /// A row's entries all lie in one island once the rows are joined: its first one's.
+  [[nodiscard]] Index of(const Row& row) const { return of(row.entries[0]); }
+
+ private:
+  const BlockJacobi& m_blocks;
+  std::vector<bool> m_sealed;
+  Index m_large;
+  std::vector<Index> m_rigid_unit;  ///< per node of the system: its rigid group's unit, or invalid
+};
+
+/// Joins to the large piece each island that holds a resting fragment and a hit: a
+/// projectile's contact, or one asking more than rigid_asked_speed. A ball on a pebble
+/// that lies on a resting piece reaches the piece through the pebble in the same answer,
+/// and must find it deformable, free to break.
+void join_hit_rigid_islands(const JointSystem& system, std::span<const ContactConstraint> contacts,
+                            std::size_t rigid_groups, const RowUnits& units, const ContactResponseSettings& settings,
+                            Islands& islands) {
+  const double asked = settings.contacts.rigid_asked_speed(settings.reference_speed);
+  std::vector<bool> hit(islands.size(), false), holds_rigid(islands.size(), false);
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    const Index r = system.row_of(k);
+    if (r == kInvalidIndex) continue;
+    const bool projectile = contacts[k].a.kind == ContactSide::Kind::Projectile ||
+                            contacts[k].b.kind == ContactSide::Kind::Projectile;
+    if (projectile || std::abs(system.rows()[r].required) > asked) hit[islands.root(units.of(system.rows()[r]))] = true;
+  }
+  for (std::size_t r = 0; r < rigid_groups; ++r) holds_rigid[islands.root(units.rigid_unit(r))] = true;
+  for (Index u = 0; u < static_cast<Index>(islands.size()); ++u) {
+    if (islands.root(u) == u && hit[u] && holds_rigid[u]) islands.join(u, units.large());
+  }
+}
+
 /// Per contact: whether its island (the contacts joined through the small fragments,
 /// resting large fragments and projectiles they touch) reads only sealed dense blocks
 /// (JointSystem::sealed_groups) and rigid groups, so the sequential impulses can answer
 /// it. The other large fragments (and any block a tet joins to another) all count as one
 /// piece: every contact that touches one goes to the augmented Lagrangian, with
-/// everything joined to it. So does an island with a resting fragment that something in
-/// it hits (a projectile's contact, or one asking more than rigid_asked_speed): a ball
-/// on a pebble that lies on a resting piece reaches the piece through the pebble in the
-/// same answer, and must find it deformable, free to break.
+/// everything joined to it; so does an island with a resting fragment and a hit
+/// (join_hit_rigid_islands).
 std::vector<bool> debris_contacts(const JointSystem& system, std::span<const contact_detail::RigidGroup> rigid,
                                   std::span<const ContactConstraint> contacts, const ContactResponseSettings& settings) {
-  const BlockJacobi& blocks = system.blocks();
-  const std::vector<bool> sealed = system.sealed_groups();
-  const Index large = blocks.group_count();
-  // Units: the dense blocks, then the one large piece, then the rigid groups.
-  std::vector<Index> rigid_unit(static_cast<std::size_t>(system.size() / 3), kInvalidIndex);
-  for (std::size_t r = 0; r < rigid.size(); ++r) {
-    for (const Eigen::Index row : rigid[r].rows) rigid_unit[row / 3] = large + 1 + static_cast<Index>(r);
-  }
-  std::vector<Index> parent(static_cast<std::size_t>(large) + 1 + rigid.size());
-  std::iota(parent.begin(), parent.end(), Index{0});
-  const auto root = [&](Index u) {
-    while (parent[u] != u) u = parent[u] = parent[parent[u]];
-    return u;
-  };
-  const auto unit = [&](const contact_detail::Entry& e) {
-    if (rigid_unit[e.row / 3] != kInvalidIndex) return rigid_unit[e.row / 3];
-    const Index g = blocks.group_of(e.row);
-    return g == kInvalidIndex || !sealed[g] ? large : g;
-  };
+  const RowUnits units(system, rigid);
+  Islands islands(units.count(rigid.size()));
   for (const Row& row : system.rows()) {
-    for (int e = 1; e < row.count; ++e) parent[root(unit(row.entries[e]))] = root(unit(row.entries[0]));
+    for (int e = 1; e < row.count; ++e) islands.join(units.of(row.entries[e]), units.of(row.entries[0]));
   }
-  if (!rigid.empty()) {
-    // An island holding a resting fragment and a hit joins the large piece.
-    const double asked = settings.contacts.rigid_asked_speed(settings.reference_speed);
-    std::vector<bool> hit(parent.size(), false), holds_rigid(parent.size(), false);
-    for (std::size_t k = 0; k < contacts.size(); ++k) {
-      const Index r = system.row_of(k);
-      if (r == kInvalidIndex) continue;
-      const bool projectile = contacts[k].a.kind == ContactSide::Kind::Projectile ||
-                              contacts[k].b.kind == ContactSide::Kind::Projectile;
-      if (projectile || std::abs(system.rows()[r].required) > asked) hit[root(unit(system.rows()[r].entries[0]))] = true;
-    }
-    for (std::size_t r = 0; r < rigid.size(); ++r) holds_rigid[root(large + 1 + static_cast<Index>(r))] = true;
-    for (Index u = 0; u < static_cast<Index>(parent.size()); ++u) {
-      if (parent[u] == u && hit[u] && holds_rigid[u]) parent[u] = root(large);
-    }
-  }
+  if (!rigid.empty()) join_hit_rigid_islands(system, contacts, rigid.size(), units, settings, islands);
   std::vector<bool> debris(contacts.size(), false);
   for (std::size_t k = 0; k < contacts.size(); ++k) {
     const Index r = system.row_of(k);
-    if (r != kInvalidIndex) debris[k] = root(unit(system.rows()[r].entries[0])) != root(large);
+    if (r != kInvalidIndex) debris[k] = islands.root(units.of(system.rows()[r])) != islands.root(units.large());
   }
   return debris;
 }
