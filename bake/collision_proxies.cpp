@@ -71,7 +71,7 @@ void validate(const SphereOptions& o) {
   // 16 radii they would no longer cover it.
   if (o.surface_spacing != 0.0 && !(o.surface_spacing >= 0.25 && o.surface_spacing <= 16.0)) {
     throw Error("--surface-spacing " + std::to_string(o.surface_spacing) + " is out of range",
-                "give 0 (no surface spheres) or 0.25 … 16 sphere radii; 1 is the default");
+                "give 0 (no surface spheres) or 0.25 … 16 sphere radii; 2 is the default");
   }
 }
 
