@@ -434,9 +434,10 @@ void ImplicitIntegrator::restore_motion(const Motion& motion) {
 }
 
 double ImplicitIntegrator::rotate_rigid_parts(const Matrix3Xd& start, std::span<const Index> node_fragment,
-                                              Index fragments) {
+                                              Index fragments, std::span<const std::uint8_t> rigid_fragments) {
   FISSURE_ASSERT(start.cols() == m_positions.cols() && node_fragment.size() == m_pinned.size());
-  return sim::rotate_rigid_parts(start, m_mass, m_pinned, node_fragment, fragments, m_positions, m_velocities);
+  return sim::rotate_rigid_parts(start, m_mass, m_pinned, node_fragment, fragments, m_positions, m_velocities,
+                                 rigid_fragments);
 }
 
 double ImplicitIntegrator::kinetic_energy() const {

@@ -188,7 +188,8 @@ class ImplicitIntegrator {
   /// Moves each fragment's rigid rotation since `start` (the positions before the step)
   /// on an arc instead of a line (rigid_rotation.h); `node_fragment[n]` is in
   /// [0, fragments). Returns the largest angle turned [rad].
-  double rotate_rigid_parts(const Matrix3Xd& start, std::span<const Index> node_fragment, Index fragments);
+  double rotate_rigid_parts(const Matrix3Xd& start, std::span<const Index> node_fragment, Index fragments,
+                            std::span<const std::uint8_t> rigid_fragments = {});
 
   /// What solve_exactly() did.
   struct ExactSolve {

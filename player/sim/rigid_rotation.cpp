@@ -55,11 +55,51 @@ void keep_angular_momentum(const std::vector<GroupFit>& fits, std::span<const In
   }
 }
 
+/// A rigid group's velocities made the rigid field that carries their momentum and
+/// angular momentum, V + Ω × r with I Ω = L about the group's centre: a projection in
+/// the mass metric, so the kinetic energy never rises.
+void keep_rigid(const std::vector<GroupFit>& fits, std::span<const std::uint8_t> rigid, const Eigen::VectorXd& mass,
+                std::span<const Index> group, const Matrix3Xd& positions, Matrix3Xd& velocities) {
+  const std::size_t count = fits.size();
+  std::vector<Vec3> centre(count, Vec3::Zero()), momentum(count, Vec3::Zero()), angular(count, Vec3::Zero());
+  std::vector<double> total(count, 0.0);
+  std::vector<Mat3> inertia(count, Mat3::Zero());
+  for (Eigen::Index n = 0; n < positions.cols(); ++n) {
+    const Index g = group[n];
+    if (!rigid[g] || fits[g].pinned) continue;
+    total[g] += mass[n];
+    centre[g] += mass[n] * positions.col(n);
+    momentum[g] += mass[n] * velocities.col(n);
+  }
+  for (std::size_t g = 0; g < count; ++g) {
+    if (total[g] > 0.0) centre[g] /= total[g];
+  }
+  for (Eigen::Index n = 0; n < positions.cols(); ++n) {
+    const Index g = group[n];
+    if (!rigid[g] || fits[g].pinned || !(total[g] > 0.0)) continue;
+    const Vec3 r = positions.col(n) - centre[g];
+    inertia[g] += mass[n] * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
+    angular[g] += mass[n] * r.cross(velocities.col(n) - momentum[g] / total[g]);
+  }
+  std::vector<Vec3> spin(count, Vec3::Zero());
+  for (std::size_t g = 0; g < count; ++g) {
+    // Collinear nodes have no inertia about their line: no spin about it either.
+    const Eigen::LDLT<Mat3> factor(inertia[g]);
+    if (total[g] > 0.0 && factor.info() == Eigen::Success) spin[g] = factor.solve(angular[g]);
+    if (!spin[g].allFinite()) spin[g].setZero();
+  }
+  for (Eigen::Index n = 0; n < positions.cols(); ++n) {
+    const Index g = group[n];
+    if (!rigid[g] || fits[g].pinned || !(total[g] > 0.0)) continue;
+    velocities.col(n) = momentum[g] / total[g] + spin[g].cross(positions.col(n) - centre[g]);
+  }
+}
+
 }  // namespace
 
 double rotate_rigid_parts(const Matrix3Xd& start, const Eigen::VectorXd& mass, std::span<const std::uint8_t> pinned,
                           std::span<const Index> group, Index group_count, Matrix3Xd& positions,
-                          Matrix3Xd& velocities) {
+                          Matrix3Xd& velocities, std::span<const std::uint8_t> rigid) {
   const Eigen::Index n_nodes = positions.cols();
   std::vector<GroupFit> fits(group_count);
   for (Eigen::Index n = 0; n < n_nodes; ++n) {
@@ -97,11 +137,17 @@ double rotate_rigid_parts(const Matrix3Xd& start, const Eigen::VectorXd& mass, s
     g.rotation = Eigen::AngleAxisd(angle, g.rotation_vector / angle);
     largest = std::max(largest, angle);
   }
+  const auto is_rigid = [&](Index g) { return !rigid.empty() && rigid[g] != 0; };
   for (Eigen::Index n = 0; n < n_nodes; ++n) {
     GroupFit& g = fits[group[n]];
-    if (g.pinned || g.rotation.angle() == 0.0) continue;
+    if (g.pinned || g.mass <= 0.0) continue;
+    const bool turns = g.rotation.angle() != 0.0;
+    if (!turns && !is_rigid(group[n])) continue;
     const Vec3 r = start.col(n) - g.centre;
-    const Vec3 deformation = positions.col(n) - start.col(n) - g.translation - g.rotation_vector.cross(r);
+    // A rigid group keeps no deformation: the start's shape, moved and turned, so its
+    // strain is the start's.
+    const Vec3 deformation = is_rigid(group[n]) ? Vec3::Zero()
+                                                : Vec3(positions.col(n) - start.col(n) - g.translation - g.rotation_vector.cross(r));
     positions.col(n) = g.centre + g.translation + g.rotation * (r + deformation);
     velocities.col(n) = g.velocity + g.rotation * (velocities.col(n) - g.velocity);
     const Vec3 r_after = positions.col(n) - g.centre - g.translation;
@@ -109,6 +155,7 @@ double rotate_rigid_parts(const Matrix3Xd& start, const Eigen::VectorXd& mass, s
     g.inertia_after += mass[n] * (r_after.squaredNorm() * Mat3::Identity() - r_after * r_after.transpose());
   }
   keep_angular_momentum(fits, group, positions, velocities);
+  if (!rigid.empty()) keep_rigid(fits, rigid, mass, group, positions, velocities);
   return largest;
 }
 

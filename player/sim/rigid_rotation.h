@@ -35,9 +35,12 @@ namespace fissure::sim {
 
 /// `start` and `positions`: 3×#N before and after the step; `velocities` 3×#N after it;
 /// `mass` #N; `pinned[n]` is nonzero for a pinned node; `group[n]` in [0, group_count): the
-/// fragment of node n. Returns the largest rotation applied [rad].
+/// fragment of node n. `rigid` (empty, or one per group): a nonzero group is moved with
+/// no deformation at all, its start's shape turned and moved, and its velocities made the
+/// rigid field carrying their momentum and angular momentum (solver.rigid_fragments_below).
+/// Returns the largest rotation applied [rad].
 double rotate_rigid_parts(const Matrix3Xd& start, const Eigen::VectorXd& mass, std::span<const std::uint8_t> pinned,
                           std::span<const Index> group, Index group_count, Matrix3Xd& positions,
-                          Matrix3Xd& velocities);
+                          Matrix3Xd& velocities, std::span<const std::uint8_t> rigid = {});
 
 }  // namespace fissure::sim

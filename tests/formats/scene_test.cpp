@@ -40,6 +40,7 @@ contact_iterations = 3
 contact_sweeps = 5
 threads = 3
 max_splits_per_step = 7
+rigid_fragments_below = 9
 
 [features]
 fracture = true
@@ -134,6 +135,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(scene.solver.contact_sweeps, 5);
   EXPECT_EQ(scene.solver.threads, 3);
   EXPECT_EQ(scene.solver.max_splits_per_step, 7);
+  EXPECT_EQ(scene.solver.rigid_fragments_below, 9);
 
   EXPECT_TRUE(scene.features.fracture);
   EXPECT_FALSE(scene.features.collisions);
@@ -188,12 +190,12 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(bunny.pin_boxes[0].min, Vec3(-1, -1, 0));
   EXPECT_EQ(bunny.pin_boxes[0].max, Vec3(1, 1, 0.1));
   EXPECT_EQ(bunny.pin_nodes, (std::vector<Index>{3, 1, 4, 15}));
-  EXPECT_EQ(bunny.line, 50);
+  EXPECT_EQ(bunny.line, 51);
 
   const SceneObject& cube = scene.objects[1];
   EXPECT_EQ(cube.name, "cube");  // the bundle's stem when no name is given
   EXPECT_EQ(cube.bundle, std::filesystem::path("scenes/other/cube.h5"));
-  EXPECT_EQ(cube.line, 79);
+  EXPECT_EQ(cube.line, 80);
 
   ASSERT_EQ(scene.projectiles.size(), 1u);
   const SceneProjectile& p = scene.projectiles[0];
@@ -204,7 +206,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(p.launch_time, 1.5);
   EXPECT_EQ(p.restitution, 0.8);
   EXPECT_EQ(p.friction, 0.1);
-  EXPECT_EQ(p.line, 82);
+  EXPECT_EQ(p.line, 83);
 }
 
 // The keys that no shipped scene sets (issue 47: every key is set by a shipped or a test
@@ -269,6 +271,7 @@ TEST(SceneReader, DefaultsApply) {
   EXPECT_EQ(scene.solver.contact_iterations, 8);
   EXPECT_EQ(scene.solver.contact_sweeps, 16);
   EXPECT_EQ(scene.solver.rigid_resting_speed, 0.2);
+  EXPECT_EQ(scene.solver.rigid_fragments_below, 0);
   EXPECT_EQ(scene.solver.threads, 0);
   EXPECT_EQ(scene.solver.max_splits_per_step, 64);
   EXPECT_FALSE(scene.features.fracture);
@@ -480,6 +483,7 @@ TEST(SceneReader, OutOfRangeValuesNameKeyAndLine) {
       {"[solver]\ncontact_sweeps = -1\n", "solver.contact_sweeps = -1 is out of range", 4},
       {"[solver]\ncontact_sweeps = 1025\n", "solver.contact_sweeps = 1025 is out of range", 4},
       {"[solver]\nrigid_resting_speed = -0.1\n", "solver.rigid_resting_speed = -0.1 is out of range", 4},
+      {"[solver]\nrigid_fragments_below = -1\n", "solver.rigid_fragments_below = -1 is out of range", 4},
       {"[solver]\nmax_splits_per_step = -2\n", "solver.max_splits_per_step = -2 is out of range", 4},
       {"[object.material]\ndensity = 0\n", "object[0].material.density = 0 is out of range", 4},
       {"[object.material]\nyoungs_modulus = -1e6\n", "object[0].material.youngs_modulus = -1e+06 is out of range", 4},

@@ -100,6 +100,53 @@ TEST(RigidRotation, ADeformationIsCarriedUnchangedInTheTurnedFrame) {
   for (Index n = 0; n < 4; ++n) EXPECT_LT((x.col(n) - (c + turn * (swollen.col(n) - c))).norm(), 1e-14) << n;
 }
 
+TEST(RigidRotation, ARigidGroupKeepsItsShapeAndItsMomentaAndLosesOnlyItsFlex) {
+  // solver.rigid_fragments_below: a turn, a drift and a swelling in one step; the rigid
+  // group keeps the start's shape (so its strain), its centre's motion and its linear
+  // momentum, and its velocities become a rigid field with no more kinetic energy.
+  TwoTets t;
+  const double h = 0.05;
+  const Vec3 omega(1.0, -4.0, 2.5), drift(0.2, -0.3, 0.1);
+  const Vec3 c = t.centre(t.start, 0);
+  Matrix3Xd v(3, 8);
+  for (Index n = 0; n < 8; ++n) {
+    const Vec3 r = t.start.col(n) - c;
+    v.col(n) = n < 4 ? Vec3(drift + omega.cross(r) + 0.8 * r) : Vec3::Zero();  // 0.8 r: swelling
+  }
+  Matrix3Xd x = t.start + h * v;
+  const Vec3 momentum = v * t.mass;
+  const auto kinetic = [&] { return 0.5 * (v.colwise().squaredNorm().transpose().array() * t.mass.array()).sum(); };
+  const double kinetic_before = kinetic();
+  const Matrix3Xd untouched = x.rightCols(4);
+  const std::vector<std::uint8_t> rigid = {1, 0};
+
+  rotate_rigid_parts(t.start, t.mass, t.pinned, t.group, 2, x, v, rigid);
+
+  EXPECT_LT(pair_distance_error(x, t.start, 0), 1e-14);         // the start's shape: no new strain
+  EXPECT_LT((t.centre(x, 0) - (c + h * drift)).norm(), 1e-14);  // the swelling moved no centre
+  EXPECT_LT((v * t.mass - momentum).norm(), 1e-13);
+  EXPECT_LT(kinetic(), kinetic_before);  // the swelling's share is gone
+  for (Index i = 0; i < 4; ++i) {
+    for (Index j = i + 1; j < 4; ++j) {
+      EXPECT_NEAR((x.col(i) - x.col(j)).dot(v.col(i) - v.col(j)), 0.0, 1e-12) << i << " " << j;
+    }
+  }
+  EXPECT_EQ(x.rightCols(4), untouched);
+}
+
+TEST(RigidRotation, ARigidGroupThatDoesNotTurnStillLosesItsFlex) {
+  // Below the smallest rotation a deformable group is left alone; a rigid one is not.
+  TwoTets t;
+  const Vec3 c = t.centre(t.start, 0);
+  Matrix3Xd v = Matrix3Xd::Zero(3, 8);
+  for (Index n = 0; n < 4; ++n) v.col(n) = 0.5 * (t.start.col(n) - c);
+  Matrix3Xd x = t.start + 0.1 * v;
+  const std::vector<std::uint8_t> rigid = {1, 1};
+  EXPECT_EQ(rotate_rigid_parts(t.start, t.mass, t.pinned, t.group, 2, x, v, rigid), 0.0);
+  EXPECT_LT(pair_distance_error(x, t.start, 0), 1e-15);
+  EXPECT_LT(v.norm(), 1e-15);  // a pure swelling has no rigid part
+}
+
 TEST(RigidRotation, AGroupWithAPinnedNodeIsLeftAsItWas) {
   TwoTets t;
   t.pinned[2] = 1;

@@ -337,8 +337,8 @@ class RowUnits {
 /// that lies on a resting piece reaches the piece through the pebble in the same answer,
 /// and must find it deformable, free to break.
 void join_hit_rigid_islands(const JointSystem& system, std::span<const ContactConstraint> contacts,
-                            std::size_t rigid_groups, const RowUnits& units, const ContactResponseSettings& settings,
-                            Islands& islands) {
+                            std::span<const contact_detail::RigidGroup> rigid, const RowUnits& units,
+                            const ContactResponseSettings& settings, Islands& islands) {
   const double asked = settings.contacts.rigid_asked_speed(settings.reference_speed);
   std::vector<bool> hit(islands.size(), false), holds_rigid(islands.size(), false);
   for (std::size_t k = 0; k < contacts.size(); ++k) {
@@ -348,7 +348,10 @@ void join_hit_rigid_islands(const JointSystem& system, std::span<const ContactCo
                             contacts[k].b.kind == ContactSide::Kind::Projectile;
     if (projectile || std::abs(system.rows()[r].required) > asked) hit[islands.root(units.of(system.rows()[r]))] = true;
   }
-  for (std::size_t r = 0; r < rigid_groups; ++r) holds_rigid[islands.root(units.rigid_unit(r))] = true;
+  // A small fragment is rigid whatever hits it; only a resting large one must break.
+  for (std::size_t r = 0; r < rigid.size(); ++r) {
+    if (!rigid[r].small) holds_rigid[islands.root(units.rigid_unit(r))] = true;
+  }
   for (Index u = 0; u < static_cast<Index>(islands.size()); ++u) {
     if (islands.root(u) == u && hit[u] && holds_rigid[u]) islands.join(u, units.large());
   }
@@ -368,7 +371,7 @@ std::vector<bool> debris_contacts(const JointSystem& system, std::span<const con
   for (const Row& row : system.rows()) {
     for (int e = 1; e < row.count; ++e) islands.join(units.of(row.entries[e]), units.of(row.entries[0]));
   }
-  if (!rigid.empty()) join_hit_rigid_islands(system, contacts, rigid.size(), units, settings, islands);
+  if (!rigid.empty()) join_hit_rigid_islands(system, contacts, rigid, units, settings, islands);
   std::vector<bool> debris(contacts.size(), false);
   for (std::size_t k = 0; k < contacts.size(); ++k) {
     const Index r = system.row_of(k);

@@ -128,6 +128,16 @@ struct ContactSettings {
   /// (docs/decisions/0073-rigid-answers-at-rest.md).
   double rigid_resting_speed = 0.2;
 
+  // --- Small fragments as rigid bodies (rigid_response.cpp, World) --------------------
+  /// A fragment of fewer tets than this moves as a rigid body: its contacts are answered
+  /// as a rigid group's (rigid_response.h), and after each substep its deformation is
+  /// dropped and its velocities made rigid (rigid_rotation.h, with the turn on the arc),
+  /// so its strain stays what it was when it broke free; 0: none (the thesis's model).
+  /// Off by default: at 2 (single tets, which cannot split again) the bunny's toughness 0
+  /// lost its worst steps, but a chip just broken off still sinks up to 2 mm
+  /// (docs/decisions/0074-small-fragments-move-rigidly.md).
+  int rigid_fragments_below = 0;
+
   /// What a contact asking `required` [m/s] of the response may still miss its target by
   /// when the iterations stop: relative_violation of what it asks (or of
   /// `reference_speed`, |g| h), never more than reach_share of its reach per step.

@@ -31,6 +31,17 @@ std::vector<std::vector<NodeIndex>> fragment_nodes(const CollisionBody& b) {
   return out;
 }
 
+/// Each fragment's tet count (one fragment without fragments).
+std::vector<Index> fragment_tet_counts(const CollisionBody& b) {
+  if (b.tet_fragment == nullptr) return {static_cast<Index>(b.body->elasticity().tet_count())};
+  std::vector<Index> count;
+  for (const Index f : *b.tet_fragment) {
+    if (f >= count.size()) count.resize(f + 1, 0);
+    ++count[f];
+  }
+  return count;
+}
+
 Index fragment_of(const CollisionBody& b, TetIndex tet) { return b.tet_fragment == nullptr ? 0 : (*b.tet_fragment)[tet]; }
 
 /// The fragment's motion as a rigid body's: mass, centre of mass, inertia about it, and
@@ -70,6 +81,10 @@ RigidBody rigid_body_of(const ImplicitIntegrator& body, std::span<const NodeInde
   return r;
 }
 
+/// Whether its inertia can be inverted: nodes on a line (or a flattened sliver) have
+/// little or none about it, and would turn without bound.
+bool turns_freely(const RigidBody& r) { return r.inertia.determinant() > 1e-9 * std::pow(r.inertia.trace(), 3); }
+
 /// The point's velocity: an embedded point's from its tet's nodes; an obstacle's is 0.
 Vec3 side_velocity(std::span<const CollisionBody> bodies, const ContactSide& s) {
   if (s.kind != Side::Embedded) return Vec3::Zero();
@@ -98,9 +113,7 @@ bool at_rest(std::span<const CollisionBody> bodies, Index body, std::span<const 
     if (std::abs(required_of(bodies, contacts[k])) > asked) return false;
   }
   const RigidBody r = rigid_body_of(*bodies[body].body, nodes);
-  // Nodes on a line have no inertia about it (never a fragment of tets with volume).
-  if (!(r.inertia.determinant() > 1e-9 * std::pow(r.inertia.trace(), 3))) return false;
-  return r.kinetic - r.rigid_kinetic() <= 0.5 * r.mass * speed * speed;
+  return turns_freely(r) && r.kinetic - r.rigid_kinetic() <= 0.5 * r.mass * speed * speed;
 }
 
 }  // namespace
@@ -109,7 +122,7 @@ std::vector<RestingFragment> resting_fragments(std::span<const CollisionBody> bo
                                                std::span<const ContactConstraint> contacts,
                                                const ContactSettings& settings, double reference_speed) {
   std::vector<RestingFragment> out;
-  if (!(settings.rigid_resting_speed > 0.0)) return out;
+  if (!(settings.rigid_resting_speed > 0.0) && settings.rigid_fragments_below <= 0) return out;
   // (body, fragment) → its contacts; a fragment a projectile touches is out (a hit, or
   // a ball resting on it, is answered deformably).
   std::map<std::pair<Index, Index>, std::vector<std::size_t>> candidates;
@@ -126,13 +139,24 @@ std::vector<RestingFragment> resting_fragments(std::span<const CollisionBody> bo
   }
   // Each body's fragments' nodes, made once and only for a body with a candidate.
   std::vector<std::vector<std::vector<NodeIndex>>> nodes_of(bodies.size());
+  std::vector<std::vector<Index>> tets_of(bodies.size());  // per body, each fragment's tet count
   for (auto& [key, mine] : candidates) {
-    if (excluded.count(key) > 0) continue;
     const CollisionBody& b = bodies[key.first];
     if (nodes_of[key.first].empty()) nodes_of[key.first] = fragment_nodes(b);
     const std::vector<NodeIndex>& nodes = nodes_of[key.first][key.second];
+    const auto pinned = [&] { return std::any_of(nodes.begin(), nodes.end(), [&](NodeIndex n) { return b.body->pinned(n); }); };
+    if (settings.rigid_fragments_below > 0) {
+      if (tets_of[key.first].empty()) tets_of[key.first] = fragment_tet_counts(b);
+      if (tets_of[key.first][key.second] < static_cast<Index>(settings.rigid_fragments_below)) {
+        if (!pinned() && turns_freely(rigid_body_of(*b.body, nodes))) {
+          out.push_back({.body = key.first, .nodes = nodes, .small = true});
+        }
+        continue;
+      }
+    }
+    if (!(settings.rigid_resting_speed > 0.0) || excluded.count(key) > 0) continue;
     if (nodes.size() <= static_cast<std::size_t>(settings.dense_fragment_nodes)) continue;
-    if (std::any_of(nodes.begin(), nodes.end(), [&](NodeIndex n) { return b.body->pinned(n); })) continue;
+    if (pinned()) continue;
     if (!at_rest(bodies, key.first, nodes, contacts, mine, settings, reference_speed)) continue;
     out.push_back({.body = key.first, .nodes = nodes});
   }
@@ -151,6 +175,7 @@ std::vector<RigidGroup> rigid_groups(std::span<const CollisionBody> bodies, std:
     // rigid δ carries exactly its impulses there too (JointSystem::apply).
     const double scale = body.system_mass_scale();
     RigidGroup group;
+    group.small = f.small;
     group.mass = scale * rigid.mass;
     group.inverse_inertia = rigid.inverse_inertia / scale;
     group.rows.reserve(f.nodes.size());

@@ -38,11 +38,13 @@ namespace fissure::sim::contact_detail {
 struct RestingFragment {
   Index body = 0;
   std::vector<NodeIndex> nodes;  ///< its free nodes
+  bool small = false;            ///< rigid for its size (ContactSettings::rigid_fragments_below), not at rest
 };
 
 /// The large fragments (more than ContactSettings::dense_fragment_nodes free nodes) that
-/// are at rest, as the header says; none if rigid_resting_speed is 0. `reference_speed`
-/// is |g| h (ContactResponseSettings::reference_speed).
+/// are at rest, as the header says (none if rigid_resting_speed is 0), and the fragments
+/// of fewer tets than rigid_fragments_below that a contact touches, rigid whatever they
+/// do. `reference_speed` is |g| h (ContactResponseSettings::reference_speed).
 std::vector<RestingFragment> resting_fragments(std::span<const CollisionBody> bodies,
                                                std::span<const ContactConstraint> contacts,
                                                const ContactSettings& settings, double reference_speed);

@@ -71,8 +71,8 @@ class SequentialImpulses {
     }
     for (std::size_t r = 0; r < m_rigid.size(); ++r) {
       if (!m_rigid_touched[r]) continue;
-      ++out.rigid_groups_moved;
       const RigidGroup& group = m_rigid[r];
+      if (!group.small) ++out.rigid_groups_moved;
       for (std::size_t i = 0; i < group.rows.size(); ++i) {
         out.delta.segment<3>(group.rows[i]) = m_rigid_velocity[r] + m_rigid_spin[r].cross(group.arms[i]);
       }

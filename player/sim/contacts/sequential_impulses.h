@@ -43,6 +43,7 @@ struct RigidGroup {
   std::vector<Vec3> arms;          ///< each node's position less the centre of mass
   double mass = 0.0;
   Mat3 inverse_inertia = Mat3::Zero();  ///< about the centre of mass
+  bool small = false;  ///< a small fragment, rigid whatever it does (not a resting large one)
 };
 
 struct SequentialImpulsesAnswer {
@@ -52,7 +53,7 @@ struct SequentialImpulsesAnswer {
   double largest_violation = 0.0;  ///< max_k (target_k − n · v_rel) after the answer [m/s]
   bool met = false;                ///< the stopping rule held before the cap
   bool acceptable = false;         ///< no contact misses its target by more than `acceptable` says
-  int rigid_groups_moved = 0;      ///< rigid groups a contact touched
+  int rigid_groups_moved = 0;      ///< resting large fragments' rigid groups a contact touched
 };
 
 /// Needs every row to read only sealed dense blocks (JointSystem::sealed_groups) or
