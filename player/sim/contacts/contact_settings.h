@@ -132,8 +132,8 @@ struct ContactSettings {
   /// A fragment of fewer tets than this moves as a rigid body: its contacts are answered
   /// as a rigid group's (rigid_response.h), and after each substep its deformation is
   /// dropped and its velocities made rigid (rigid_rotation.h, with the turn on the arc),
-  /// so its strain stays what it was when it broke free; 0: none (the thesis's model).
-  /// Off by default: at 2 (single tets, which cannot split again) the bunny's toughness 0
+  /// so its strain stays what it was when it broke free (the moves only with the turns on
+  /// arcs, WorldSettings::rotate_on_arcs); 0: none (the thesis's model). Off by default: at 2 (single tets, which cannot split again) the bunny's toughness 0
   /// lost its worst steps, but a chip just broken off still sinks up to 2 mm
   /// (docs/decisions/0074-small-fragments-move-rigidly.md).
   int rigid_fragments_below = 0;
