@@ -168,7 +168,7 @@ struct SceneSolverSettings {
   /// in every response (the thesis's model).
   double rigid_resting_speed = 0.2;
   /// A fragment of fewer tets than this moves as a rigid body, its strain frozen at what
-  /// it was when it broke free (sim::WorldSettings::rigid_fragments_below); 0 = none,
+  /// it was when it broke free (sim::ContactSettings::rigid_fragments_below); 0 = none,
   /// every fragment deformable (the thesis's model). Integer 0 … 1e6.
   int rigid_fragments_below = 0;
   /// Islands of fragments slower than sleep_speed for sleep_time are held still until

@@ -159,4 +159,13 @@ double rotate_rigid_parts(const Matrix3Xd& start, const Eigen::VectorXd& mass, s
   return largest;
 }
 
+std::vector<std::uint8_t> small_fragments(std::span<const Index> tet_fragment, Index fragment_count, int below) {
+  if (below <= 0) return {};
+  std::vector<Index> tets(fragment_count, 0);
+  for (const Index f : tet_fragment) ++tets[f];
+  std::vector<std::uint8_t> small(fragment_count);
+  for (Index f = 0; f < fragment_count; ++f) small[f] = tets[f] < static_cast<Index>(below);
+  return small;
+}
+
 }  // namespace fissure::sim

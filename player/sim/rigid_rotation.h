@@ -28,6 +28,7 @@
 /// the elastic solve so that solve stays one linear system per step.
 
 #include <span>
+#include <vector>
 
 #include "common/types.h"
 
@@ -42,5 +43,10 @@ namespace fissure::sim {
 double rotate_rigid_parts(const Matrix3Xd& start, const Eigen::VectorXd& mass, std::span<const std::uint8_t> pinned,
                           std::span<const Index> group, Index group_count, Matrix3Xd& positions,
                           Matrix3Xd& velocities, std::span<const std::uint8_t> rigid = {});
+
+/// Per fragment, nonzero where it has fewer tets than `below` and so moves as a rigid
+/// body (solver.rigid_fragments_below); `tet_fragment[t]` is in [0, fragment_count).
+/// Empty when `below` is 0.
+std::vector<std::uint8_t> small_fragments(std::span<const Index> tet_fragment, Index fragment_count, int below);
 
 }  // namespace fissure::sim

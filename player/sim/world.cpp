@@ -7,6 +7,7 @@
 #include "common/assert.h"
 #include "common/error.h"
 #include "player/sim/contacts/stand_in_spheres.h"
+#include "player/sim/rigid_rotation.h"
 
 namespace fissure::sim {
 
@@ -230,16 +231,9 @@ void World::rotate_fragments_on_arcs(const std::vector<Matrix3Xd>& from) {
     for (Eigen::Index t = 0; t < tets.cols(); ++t) {
       for (int k = 0; k < 4; ++k) m_node_fragment[tets(k, t)] = tet_fragment[t];
     }
-    m_rigid_fragment.clear();
-    if (m_settings.contacts.rigid_fragments_below > 0) {
-      std::vector<Index> tet_count(b.topology.fragment_count(), 0);
-      for (const Index f : tet_fragment) ++tet_count[f];
-      m_rigid_fragment.resize(tet_count.size());
-      for (std::size_t f = 0; f < tet_count.size(); ++f) {
-        m_rigid_fragment[f] = tet_count[f] < static_cast<Index>(m_settings.contacts.rigid_fragments_below);
-      }
-    }
-    b.integrator().rotate_rigid_parts(from[bi], m_node_fragment, b.topology.fragment_count(), m_rigid_fragment);
+    const std::vector<std::uint8_t> small =
+        small_fragments(tet_fragment, b.topology.fragment_count(), m_settings.contacts.rigid_fragments_below);
+    b.integrator().rotate_rigid_parts(from[bi], m_node_fragment, b.topology.fragment_count(), small);
   }
 }
 

@@ -383,7 +383,6 @@ class World {
   /// next answers inelastically first (collide()).
   bool m_restitution_futile = false;
   std::vector<Index> m_node_fragment;  ///< scratch for rotate_fragments_on_arcs
-  std::vector<std::uint8_t> m_rigid_fragment;  ///< scratch for rotate_fragments_on_arcs: per fragment, rigid
   Sleeping m_sleeping;
   std::vector<Touch> m_touches;  ///< the last substep's contacts, for sleeping
   std::vector<Index> m_fragment_before;  ///< scratch for fracture_bodies: a body's tet fragments before its splits

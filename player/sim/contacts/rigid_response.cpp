@@ -7,6 +7,7 @@
 
 #include "player/sim/contacts/joint_system.h"
 #include "player/sim/implicit_integrator.h"
+#include "player/sim/rigid_rotation.h"
 
 namespace fissure::sim::contact_detail {
 namespace {
@@ -31,15 +32,14 @@ std::vector<std::vector<NodeIndex>> fragment_nodes(const CollisionBody& b) {
   return out;
 }
 
-/// Each fragment's tet count (one fragment without fragments).
-std::vector<Index> fragment_tet_counts(const CollisionBody& b) {
-  if (b.tet_fragment == nullptr) return {static_cast<Index>(b.body->elasticity().tet_count())};
-  std::vector<Index> count;
-  for (const Index f : *b.tet_fragment) {
-    if (f >= count.size()) count.resize(f + 1, 0);
-    ++count[f];
+/// Per fragment, whether it is small enough to move rigidly (one fragment without fragments).
+std::vector<std::uint8_t> small_fragments_of(const CollisionBody& b, int below) {
+  if (b.tet_fragment == nullptr) {
+    return {static_cast<std::uint8_t>(b.body->elasticity().tet_count() < static_cast<std::size_t>(below))};
   }
-  return count;
+  const std::vector<Index>& tet_fragment = *b.tet_fragment;
+  const Index count = tet_fragment.empty() ? 0 : *std::max_element(tet_fragment.begin(), tet_fragment.end()) + 1;
+  return small_fragments(tet_fragment, count, below);
 }
 
 Index fragment_of(const CollisionBody& b, TetIndex tet) { return b.tet_fragment == nullptr ? 0 : (*b.tet_fragment)[tet]; }
@@ -139,15 +139,15 @@ std::vector<RestingFragment> resting_fragments(std::span<const CollisionBody> bo
   }
   // Each body's fragments' nodes, made once and only for a body with a candidate.
   std::vector<std::vector<std::vector<NodeIndex>>> nodes_of(bodies.size());
-  std::vector<std::vector<Index>> tets_of(bodies.size());  // per body, each fragment's tet count
+  std::vector<std::vector<std::uint8_t>> small_of(bodies.size());  // per body, each fragment small or not
   for (auto& [key, mine] : candidates) {
     const CollisionBody& b = bodies[key.first];
     if (nodes_of[key.first].empty()) nodes_of[key.first] = fragment_nodes(b);
     const std::vector<NodeIndex>& nodes = nodes_of[key.first][key.second];
     const auto pinned = [&] { return std::any_of(nodes.begin(), nodes.end(), [&](NodeIndex n) { return b.body->pinned(n); }); };
     if (settings.rigid_fragments_below > 0) {
-      if (tets_of[key.first].empty()) tets_of[key.first] = fragment_tet_counts(b);
-      if (tets_of[key.first][key.second] < static_cast<Index>(settings.rigid_fragments_below)) {
+      if (small_of[key.first].empty()) small_of[key.first] = small_fragments_of(b, settings.rigid_fragments_below);
+      if (small_of[key.first][key.second] != 0) {
         if (!pinned() && turns_freely(rigid_body_of(*b.body, nodes))) {
           out.push_back({.body = key.first, .nodes = nodes, .small = true});
         }
