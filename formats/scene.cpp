@@ -70,7 +70,7 @@ void read_box_corners(const Table& t, Vec3& min, Vec3& max) {
 void read_solver(const Table& t, SceneSolverSettings& s) {
   t.allow_only({"dt", "min_dt", "max_substep", "solver", "tolerance", "max_iterations", "preconditioner",
                 "refactor_iterations", "stiffness", "rotation", "exact_when_gaining", "exact_gain_share", "energy_halvings",
-                "contact_iterations", "contact_sweeps", "rigid_resting_speed", "rigid_fragments_below", "sleep_speed", "sleep_time", "threads", "max_splits_per_step"});
+                "contact_iterations", "contact_sweeps", "rigid_resting_speed", "rigid_fragments_below", "rigid_when_gaining_below", "sleep_speed", "sleep_time", "threads", "max_splits_per_step"});
   t.read_number("dt", s.dt, [](double v) { return v > 0 && v <= 1; }, "0 < dt <= 1 [s]");
   t.read_number("min_dt", s.min_dt, [&](double v) { return v >= 0 && v <= s.dt; },
                 "0 <= min_dt <= dt (= " + format_number(s.dt) + ") [s]; 0 means a fixed step");
@@ -104,6 +104,8 @@ void read_solver(const Table& t, SceneSolverSettings& s) {
   t.read_integer("threads", s.threads, 0, kMaxThreads, "an integer in 0 … " + std::to_string(kMaxThreads) + " (0 = all cores)");
   t.read_integer("max_splits_per_step", s.max_splits_per_step, 0, INT_MAX, "an integer >= 0");
   t.read_integer("rigid_fragments_below", s.rigid_fragments_below, 0, 1'000'000, "an integer 0 … 1e6 (tets)");
+  t.read_integer("rigid_when_gaining_below", s.rigid_when_gaining_below, 0, 1'000'000,
+                 "an integer 0 … 1e6 (tets; 0 = never)");
 }
 
 void read_features(const Table& t, SceneFeatures& f) {

@@ -149,6 +149,11 @@ struct SceneSolverSettings {
   /// (sim::WorldSettings::energy_halvings); 0 = never. 6: the stability grids keep the
   /// energy bound in every case (docs/decisions/0033-halving-substeps-that-gain.md).
   int energy_halvings = 6;
+  /// A substep still above its energy budget after the exact re-solve has its chips of
+  /// fewer tets than this that gained energy moved rigidly from its start
+  /// (sim::WorldSettings::rigid_when_gaining_below); 0 = never, every fragment solved as
+  /// FEM in every substep (the thesis's model). Integer 0 … 1e6.
+  int rigid_when_gaining_below = 8;
   /// The contact response's outer iterations at most per answer, 1 … 64
   /// (sim::ContactSettings::iterations). A pile of hundreds of fragments uses them
   /// all: at 4 the bunny at toughness 0 spends 28 % less in collisions with no deeper

@@ -139,6 +139,7 @@ void write_summary(JsonWriter& json, const sim::World& world, const RunRecord& r
   json.key("exact_newton_iterations").value(static_cast<std::uint64_t>(s.exact_iterations));
   json.key("exact_substeps_rejected").value(static_cast<std::uint64_t>(s.exact_rejected));
   json.key("energy_halvings").value(static_cast<std::uint64_t>(s.energy_halvings));
+  json.key("chips_moved_rigidly").value(static_cast<std::uint64_t>(s.chips_moved_rigidly));
   json.key("fragments_asleep_final").value(static_cast<std::uint64_t>(s.fragments_asleep));
   json.key("steps_retaken_to_wake").value(static_cast<std::uint64_t>(s.retaken_to_wake));
   if (run.diagnostics != nullptr) {
@@ -211,6 +212,11 @@ void print_summary(const sim::World& world, const RunRecord& run) {
     std::printf("exact      %zu substeps solved again to convergence where they gained energy "
                 "(%zu Newton iterations; %zu kept the linear answer, which ended lower)\n",
                 s.exact_substeps, s.exact_iterations, s.exact_rejected);
+  }
+  if (s.chips_moved_rigidly > 0) {
+    std::printf("rigid      %zu chips moved rigidly for a substep because they gained energy "
+                "(solver.rigid_when_gaining_below)\n",
+                s.chips_moved_rigidly);
   }
   if (s.energy_halvings > 0) {
     std::printf("halved     %zu substeps taken again as two halves because they still gained energy "

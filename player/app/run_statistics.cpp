@@ -78,6 +78,7 @@ void RunStatistics::on_step(const sim::World& /*world*/, const sim::StepReport& 
   exact_iterations += r.exact_iterations;
   exact_rejected += r.exact_substeps_rejected;
   energy_halvings += static_cast<std::size_t>(r.energy_halvings);
+  chips_moved_rigidly += static_cast<std::size_t>(r.chips_moved_rigidly);
   stand_in_spheres += static_cast<std::size_t>(r.stand_in_spheres);
   fragments_asleep = r.fragments_asleep;
   retaken_to_wake += static_cast<std::size_t>(r.retaken_to_wake);

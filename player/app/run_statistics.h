@@ -59,6 +59,8 @@ class RunStatistics : public RunObserver {
   std::size_t exact_substeps = 0, exact_iterations = 0, exact_rejected = 0;
   /// Substeps taken again as two halves because they still gained energy (sim::StepReport).
   std::size_t energy_halvings = 0;
+  /// Chips moved rigidly because they gained energy (sim::StepReport::chips_moved_rigidly).
+  std::size_t chips_moved_rigidly = 0;
   /// Spheres given to tets that fracture exposed with no collision point (sim::StepReport).
   std::size_t stand_in_spheres = 0;
   /// Fragments asleep after the last step, and steps taken again to wake an island (sim::StepReport).

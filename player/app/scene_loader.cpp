@@ -232,6 +232,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
   settings.exact_when_gaining = exact_resolve(scene.solver.exact_when_gaining);
   settings.exact_gain_share = scene.solver.exact_gain_share;
   settings.energy_halvings = scene.solver.energy_halvings;
+  settings.rigid_when_gaining_below = scene.solver.rigid_when_gaining_below;
   settings.contacts.iterations = scene.solver.contact_iterations;
   settings.contacts.sequential_impulse_sweeps = scene.solver.contact_sweeps;
   settings.contacts.rigid_resting_speed = scene.solver.rigid_resting_speed;

@@ -320,15 +320,16 @@ double CorotatedElasticity::energy(const Matrix3Xd& x) const {
     for (int l = 0; l < size; ++l) F[l] = deformation_gradient(x, static_cast<TetIndex>(first + l));
     polar_rotations(F, Q, size);
     double sum = 0.0;
-    for (int l = 0; l < size; ++l) {
-      const Mat3 S = Q[l].transpose() * F[l];
-      const Mat3 strain = 0.5 * (S + S.transpose()) - Mat3::Identity();
-      const double trace = strain.trace();
-      sum += m_volume[first + l] * (m_mu * strain.squaredNorm() + 0.5 * m_lambda * trace * trace);
-    }
+    for (int l = 0; l < size; ++l) sum += energy_at(static_cast<TetIndex>(first + l), F[l], Q[l]);
     batch_energy[first / kLanes] = sum;
   });
   return std::accumulate(batch_energy.begin(), batch_energy.end(), 0.0);
+}
+
+double CorotatedElasticity::tet_energy(const Matrix3Xd& x, TetIndex t) const {
+  Mat3 F[1] = {deformation_gradient(x, t)}, Q[1];
+  polar_rotations(F, Q, 1);
+  return energy_at(t, F[0], Q[0]);
 }
 
 void CorotatedElasticity::deformation_gradients(const Matrix3Xd& x, std::vector<Mat3>& out) const {

@@ -87,6 +87,8 @@ class CorotatedElasticity {
 
   /// Elastic energy [J] at positions x (3×#N).
   [[nodiscard]] double energy(const Matrix3Xd& x) const;
+  /// Elastic energy [J] of tet t alone at positions x (3×#N).
+  [[nodiscard]] double tet_energy(const Matrix3Xd& x, TetIndex t) const;
 
   /// Deformation gradients F of every tet at x, in parallel.
   void deformation_gradients(const Matrix3Xd& x, std::vector<Mat3>& out) const;
@@ -139,6 +141,13 @@ class CorotatedElasticity {
   [[nodiscard]] Mat3 deformation_gradient(const Matrix3Xd& x, TetIndex t) const;
   [[nodiscard]] Mat12 exact_stiffness(TetIndex t, const Mat3& F, const SignedSvd& svd, bool project) const;
   [[nodiscard]] Mat3 stress(const Mat3& rotation, const Mat3& F) const;
+  /// Tet t's energy at deformation gradient F, with Q its polar rotation.
+  [[nodiscard]] double energy_at(TetIndex t, const Mat3& F, const Mat3& Q) const {
+    const Mat3 S = Q.transpose() * F;
+    const Mat3 strain = 0.5 * (S + S.transpose()) - Mat3::Identity();
+    const double trace = strain.trace();
+    return m_volume[t] * (m_mu * strain.squaredNorm() + 0.5 * m_lambda * trace * trace);
+  }
 };
 
 }  // namespace fissure::sim

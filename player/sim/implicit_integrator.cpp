@@ -440,6 +440,17 @@ double ImplicitIntegrator::rotate_rigid_parts(const Matrix3Xd& start, std::span<
                                  rigid_fragments);
 }
 
+void ImplicitIntegrator::move_rigidly(const Matrix3Xd& start, std::span<const Index> node_fragment, Index fragments,
+                                      std::span<const std::uint8_t> chosen) {
+  FISSURE_ASSERT(start.cols() == m_positions.cols() && node_fragment.size() == m_pinned.size() &&
+                 chosen.size() == static_cast<std::size_t>(fragments));
+  // rotate_rigid_parts leaves a fragment with a pinned node as it is: the others are
+  // passed as pinned.
+  std::vector<std::uint8_t> left(m_pinned.size());
+  for (std::size_t n = 0; n < left.size(); ++n) left[n] = m_pinned[n] != 0 || !chosen[node_fragment[n]];
+  sim::rotate_rigid_parts(start, m_mass, left, node_fragment, fragments, m_positions, m_velocities, chosen);
+}
+
 double ImplicitIntegrator::kinetic_energy() const {
   double kinetic = 0.0;
   for (Index n = 0; n < node_count(); ++n) kinetic += 0.5 * m_mass[n] * m_velocities.col(n).squaredNorm();

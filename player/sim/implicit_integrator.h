@@ -190,6 +190,11 @@ class ImplicitIntegrator {
   /// [0, fragments). Returns the largest angle turned [rad].
   double rotate_rigid_parts(const Matrix3Xd& start, std::span<const Index> node_fragment, Index fragments,
                             std::span<const std::uint8_t> rigid_fragments = {});
+  /// Moves only the fragments with `chosen[f]` nonzero rigidly since `start`: their
+  /// start's shape moved and turned, their velocities the rigid field carrying their
+  /// momenta (rigid_rotation.h); every other node stays as it is.
+  void move_rigidly(const Matrix3Xd& start, std::span<const Index> node_fragment, Index fragments,
+                    std::span<const std::uint8_t> chosen);
 
   /// What solve_exactly() did.
   struct ExactSolve {

@@ -210,10 +210,15 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   if (m_settings.exact_when_gaining == ExactResolve::SolveAndContacts) save_motion(m_contact_motion);
   if (m_settings.rotate_on_arcs) rotate_fragments_on_arcs(m_start_positions);
   const bool may_halve = halves_when_gaining(dt, depth);
+  const bool moves_chips = m_settings.rigid_when_gaining_below > 0;
   // The exact re-solve measures the substep's energy anyway; without it, only where a
-  // halving may follow.
-  const double energy = resolves ? solve_exactly_if_gaining(step, report) : may_halve ? total_energy() : 0.0;
-  if (may_halve && energy > substep_energy_limit() && energy > m_energy.run_limit()) {
+  // repair may follow.
+  double energy = resolves ? solve_exactly_if_gaining(step, report) : may_halve || moves_chips ? total_energy() : 0.0;
+  const auto above_all = [&](double e) { return e > substep_energy_limit() && e > m_energy.run_limit(); };
+  if (moves_chips && above_all(energy)) {
+    energy = move_gaining_chips_rigidly(energy, std::max(substep_energy_limit(), m_energy.run_limit()), report);
+  }
+  if (may_halve && above_all(energy)) {
     // Still above its budget after every repair, and above all the run was given: the
     // substep is too long for what happens in it (WorldSettings::energy_halvings).
     return take_again_as_halves(start, dt, report, depth);
@@ -222,17 +227,22 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   return {};
 }
 
+void World::find_node_fragments(std::size_t bi) {
+  const Body& b = m_bodies[bi];
+  const Matrix4Xu& tets = b.integrator().elasticity().tets();
+  const std::vector<Index>& tet_fragment = b.topology.tet_fragment();
+  m_node_fragment.assign(b.integrator().node_count(), 0);
+  for (Eigen::Index t = 0; t < tets.cols(); ++t) {
+    for (int k = 0; k < 4; ++k) m_node_fragment[tets(k, t)] = tet_fragment[t];
+  }
+}
+
 void World::rotate_fragments_on_arcs(const std::vector<Matrix3Xd>& from) {
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
     Body& b = m_bodies[bi];
-    const Matrix4Xu& tets = b.integrator().elasticity().tets();
-    const std::vector<Index>& tet_fragment = b.topology.tet_fragment();
-    m_node_fragment.assign(b.integrator().node_count(), 0);
-    for (Eigen::Index t = 0; t < tets.cols(); ++t) {
-      for (int k = 0; k < 4; ++k) m_node_fragment[tets(k, t)] = tet_fragment[t];
-    }
-    const std::vector<std::uint8_t> small =
-        small_fragments(tet_fragment, b.topology.fragment_count(), m_settings.contacts.rigid_fragments_below);
+    find_node_fragments(bi);
+    const std::vector<std::uint8_t> small = small_fragments(b.topology.tet_fragment(), b.topology.fragment_count(),
+                                                            m_settings.contacts.rigid_fragments_below);
     b.integrator().rotate_rigid_parts(from[bi], m_node_fragment, b.topology.fragment_count(), small);
   }
 }

@@ -87,6 +87,15 @@ struct WorldSettings {
   /// each, the run's slowest steps (issue 42;
   /// docs/decisions/0057-exact-resolve-above-a-share-of-what-was-dissipated.md).
   double exact_gain_share = 0.01;
+  /// A substep that still ends above its energy budget after the exact re-solve, and
+  /// above all the world was given, has its chips of fewer tets than this that gained
+  /// energy in it moved rigidly (World::move_gaining_chips_rigidly): their shape at the
+  /// substep's start moved and turned, their velocities made rigid. A few-tet fragment
+  /// of a nearly incompressible material is where the linear solve runs away
+  /// (ν = 0.4999: 143 kJ from 37.6 J given, 14.3 J of it in one tet of a 3-tet chip a
+  /// split had just made), and no halving of the step stops it
+  /// (docs/decisions/0075-chips-that-gain-move-rigidly.md). 0: never.
+  int rigid_when_gaining_below = 8;
   /// A substep that still ends above its energy budget after the repairs above, and
   /// above all the world was given (its energy when built plus what was put in since),
   /// is taken again as two halves from its start, at most this many times in a row (so
@@ -160,6 +169,7 @@ struct StepReport {
   int exact_substeps = 0;    ///< substeps solved again exactly (WorldSettings::exact_when_gaining)
   int exact_iterations = 0;  ///< their Newton iterations, summed over bodies
   int energy_halvings = 0;   ///< substeps taken again as two halves because they gained energy
+  int chips_moved_rigidly = 0;  ///< chips moved rigidly because they gained (WorldSettings::rigid_when_gaining_below)
   int exact_substeps_rejected = 0;  ///< of those, the ones whose contacts then gained more: the linear answer kept
   int stand_in_spheres = 0;  ///< spheres given to tets that fracture exposed with none (stand_in_spheres.h)
   std::size_t fragments_asleep = 0;  ///< held still after the step (sleeping.h)
@@ -353,6 +363,13 @@ class World {
   void solve_bodies_exactly(const StepSettings& step, StepReport& report, const std::vector<Eigen::VectorXd>* impulses);
   /// Back to the substep's linear answer after contacts and arcs (m_linear_end_motion).
   void keep_linear_answer();
+  /// The substep ends with `energy` above `limit` [J]: the fewest chips (fragments of
+  /// fewer tets than WorldSettings::rigid_when_gaining_below), largest gain first, whose
+  /// gains since the substep's start cover the excess are moved rigidly from it. Kept
+  /// only where that lowers the energy. Returns the energy the substep ends with [J].
+  double move_gaining_chips_rigidly(double energy, double limit, StepReport& report);
+  /// Per node of body `bi`, its fragment, into m_node_fragment.
+  void find_node_fragments(std::size_t bi);
   /// The first body with a non-finite position or velocity (kInvalidIndex: a projectile).
   [[nodiscard]] std::optional<Index> first_non_finite() const;
   void roll_back(const StepReport& report);
@@ -382,7 +399,8 @@ class World {
   /// The last substep that restituted ended above its budget even inelastically: the
   /// next answers inelastically first (collide()).
   bool m_restitution_futile = false;
-  std::vector<Index> m_node_fragment;  ///< scratch for rotate_fragments_on_arcs
+  std::vector<Index> m_node_fragment;  ///< scratch for rotate_fragments_on_arcs and find_node_fragments
+  Motion m_unrepaired_motion;          ///< move_gaining_chips_rigidly's scratch
   Sleeping m_sleeping;
   std::vector<Touch> m_touches;  ///< the last substep's contacts, for sleeping
   std::vector<Index> m_fragment_before;  ///< scratch for fracture_bodies: a body's tet fragments before its splits

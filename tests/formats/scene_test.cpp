@@ -272,6 +272,7 @@ TEST(SceneReader, DefaultsApply) {
   EXPECT_EQ(scene.solver.contact_sweeps, 16);
   EXPECT_EQ(scene.solver.rigid_resting_speed, 0.2);
   EXPECT_EQ(scene.solver.rigid_fragments_below, 0);
+  EXPECT_EQ(scene.solver.rigid_when_gaining_below, 8);
   EXPECT_EQ(scene.solver.threads, 0);
   EXPECT_EQ(scene.solver.max_splits_per_step, 64);
   EXPECT_FALSE(scene.features.fracture);
@@ -484,6 +485,7 @@ TEST(SceneReader, OutOfRangeValuesNameKeyAndLine) {
       {"[solver]\ncontact_sweeps = 1025\n", "solver.contact_sweeps = 1025 is out of range", 4},
       {"[solver]\nrigid_resting_speed = -0.1\n", "solver.rigid_resting_speed = -0.1 is out of range", 4},
       {"[solver]\nrigid_fragments_below = -1\n", "solver.rigid_fragments_below = -1 is out of range", 4},
+      {"[solver]\nrigid_when_gaining_below = -1\n", "solver.rigid_when_gaining_below = -1 is out of range", 4},
       {"[solver]\nmax_splits_per_step = -2\n", "solver.max_splits_per_step = -2 is out of range", 4},
       {"[object.material]\ndensity = 0\n", "object[0].material.density = 0 is out of range", 4},
       {"[object.material]\nyoungs_modulus = -1e6\n", "object[0].material.youngs_modulus = -1e+06 is out of range", 4},
