@@ -171,7 +171,7 @@ struct SceneSolverSettings {
   /// to within it) has its contacts answered as a rigid body's, 0 … 10 [m/s]
   /// (sim::ContactSettings::rigid_resting_speed); 0 = never, every fragment deformable
   /// in every response (the thesis's model).
-  double rigid_resting_speed = 0.2;
+  double rigid_resting_speed = 0.5;
   /// A fragment of fewer tets than this moves as a rigid body, its strain frozen at what
   /// it was when it broke free (sim::ContactSettings::rigid_fragments_below); 0 = none,
   /// every fragment deformable (the thesis's model). Integer 0 … 1e6.

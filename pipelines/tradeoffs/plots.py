@@ -25,7 +25,7 @@ DEFAULT_STEPS_PER_S = 240     # the player's dt, 1/240 s
 DEFAULT_TOLERANCE = 1e-4      # solver.tolerance, CG with the lagged Cholesky preconditioner
 DEFAULT_CONTACT_SWEEPS = 16   # solver.contact_sweeps (ContactSettings::sequential_impulse_sweeps)
 ENERGY_BOUND = 1.01           # energy never above what was put in, +1 % (the energy grid's bound)
-DEFAULT_RIGID_SPEED = 0.2     # solver.rigid_resting_speed [m/s] (ContactSettings::rigid_resting_speed)
+DEFAULT_RIGID_SPEED = 0.5     # solver.rigid_resting_speed [m/s] (ContactSettings::rigid_resting_speed)
 
 
 def read(folder: Path, name: str) -> list:

@@ -270,7 +270,7 @@ TEST(SceneReader, DefaultsApply) {
   EXPECT_EQ(scene.solver.stiffness, SceneStiffness::Warped);
   EXPECT_EQ(scene.solver.contact_iterations, 8);
   EXPECT_EQ(scene.solver.contact_sweeps, 16);
-  EXPECT_EQ(scene.solver.rigid_resting_speed, 0.2);
+  EXPECT_EQ(scene.solver.rigid_resting_speed, 0.5);
   EXPECT_EQ(scene.solver.rigid_fragments_below, 0);
   EXPECT_EQ(scene.solver.rigid_when_gaining_below, 8);
   EXPECT_EQ(scene.solver.threads, 0);
