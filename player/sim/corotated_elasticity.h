@@ -83,9 +83,14 @@ class CorotatedElasticity {
 
   /// Points corner `corner` of tet `t` at another node with the same rest position
   /// (fracture); the tet's rest shape, and so its gradients, do not change.
-  void replace_node(TetIndex t, int corner, NodeIndex node) { m_tets(corner, t) = node; }
+  void replace_node(TetIndex t, int corner, NodeIndex node) {
+    m_tets(corner, t) = node;
+    m_last_energy.known = false;
+  }
 
-  /// Elastic energy [J] at positions x (3×#N).
+  /// Elastic energy [J] at positions x (3×#N). The last answer is kept with its
+  /// positions and given again for the same positions, bit for bit: the energy guard
+  /// measures each substep's start, which is the last substep's end.
   [[nodiscard]] double energy(const Matrix3Xd& x) const;
   /// Elastic energy [J] of tet t alone at positions x (3×#N).
   [[nodiscard]] double tet_energy(const Matrix3Xd& x, TetIndex t) const;
@@ -137,8 +142,17 @@ class CorotatedElasticity {
   std::vector<Mat34> m_gradients;  ///< gᵢ per tet (columns)
   std::vector<double> m_volume;
   double m_mu, m_lambda;
+  /// energy()'s last answer and the positions it is for (a polar decomposition per tet
+  /// saved when asked again; World::measure_substep_start).
+  struct LastEnergy {
+    Matrix3Xd positions;
+    double value = 0;
+    bool known = false;
+  };
+  mutable LastEnergy m_last_energy;
 
   [[nodiscard]] Mat3 deformation_gradient(const Matrix3Xd& x, TetIndex t) const;
+  [[nodiscard]] double summed_energy(const Matrix3Xd& x) const;  ///< energy() without the last answer
   [[nodiscard]] Mat12 exact_stiffness(TetIndex t, const Mat3& F, const SignedSvd& svd, bool project) const;
   [[nodiscard]] Mat3 stress(const Mat3& rotation, const Mat3& F) const;
   /// Tet t's energy at deformation gradient F, with Q its polar rotation.

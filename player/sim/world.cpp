@@ -212,8 +212,14 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   const bool may_halve = halves_when_gaining(dt, depth);
   const bool moves_chips = m_settings.rigid_when_gaining_below > 0;
   // The exact re-solve measures the substep's energy anyway; without it, only where a
-  // repair may follow.
-  double energy = resolves ? solve_exactly_if_gaining(step, report) : may_halve || moves_chips ? total_energy() : 0.0;
+  // repair may follow (the start first: see solve_exactly_if_gaining).
+  double energy = 0.0;
+  if (resolves) {
+    energy = solve_exactly_if_gaining(step, report);
+  } else if (may_halve || moves_chips) {
+    measure_substep_start();
+    energy = total_energy();
+  }
   const auto above_all = [&](double e) { return e > substep_energy_limit() && e > m_energy.run_limit(); };
   if (moves_chips && above_all(energy)) {
     energy = move_gaining_chips_rigidly(energy, std::max(substep_energy_limit(), m_energy.run_limit()), report);

@@ -42,8 +42,10 @@ bool World::halves_when_gaining(double dt, int depth) const {
 ///    the step after one such re-solve on; why is open
 ///    (docs/decisions/0032-exact-resolve-where-a-substep-gains.md).
 double World::solve_exactly_if_gaining(const StepSettings& step, StepReport& report) {
-  const double linear = total_energy();
+  // The start first: it is the last substep's end, whose elastic energy is known
+  // (CorotatedElasticity::energy keeps its last answer).
   measure_substep_start();
+  const double linear = total_energy();
   if (linear <= m_energy.exact_resolve_limit(m_settings.exact_gain_share)) return linear;
   save_motion(m_linear_end_motion);
   m_linear_end_impulses = m_contact_impulses;

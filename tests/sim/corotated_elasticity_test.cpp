@@ -39,6 +39,39 @@ TEST(CorotatedElasticity, ForcesMatchFiniteDifferenceGradientOfTheEnergy) {
   }
 }
 
+// energy() gives its last answer again for the same positions (the energy guard measures
+// each substep's start, the last one's end): it must be the sum of the per-tet energies
+// for the positions, material and tets it is asked about, never a stale one.
+TEST(CorotatedElasticity, TheKeptEnergyIsAlwaysTheEnergyOfWhatIsAsked) {
+  Fixture f;
+  const Matrix3Xd x = perturbed(f.cage.rest_positions, 0.2, 1);
+  const auto per_tet_sum = [&](const Matrix3Xd& at) {
+    double sum = 0.0;
+    for (TetIndex t = 0; t < f.elasticity.tet_count(); ++t) sum += f.elasticity.tet_energy(at, t);
+    return sum;
+  };
+  const double first = f.elasticity.energy(x);
+  EXPECT_NEAR(first, per_tet_sum(x), 1e-12 * first);
+  EXPECT_EQ(f.elasticity.energy(x), first);  // asked again: the same bits
+  Matrix3Xd moved = x;
+  moved(1, 2) += 1e-3;
+  EXPECT_NEAR(f.elasticity.energy(moved), per_tet_sum(moved), 1e-12 * first);
+  EXPECT_NE(f.elasticity.energy(moved), first);
+  f.elasticity.set_material({.density = 1000, .youngs_modulus = 2e5, .poisson_ratio = 0.3});
+  EXPECT_NEAR(f.elasticity.energy(moved), per_tet_sum(moved), 1e-12 * first);
+  // A corner pointed at another node (a split) with the same positions: the energy is
+  // asked anew, here at a node moved away so that it differs.
+  const double before_split = f.elasticity.energy(moved);
+  const NodeIndex corner_node = f.elasticity.tets()(0, 0);
+  Matrix3Xd with_copy(3, moved.cols() + 1);
+  with_copy << moved, moved.col(corner_node) + Vec3(0.05, 0, 0);
+  const double unsplit = f.elasticity.energy(with_copy);
+  EXPECT_NEAR(unsplit, before_split, 1e-12 * first);  // the extra node is in no tet yet
+  f.elasticity.replace_node(0, 0, static_cast<NodeIndex>(moved.cols()));
+  EXPECT_NEAR(f.elasticity.energy(with_copy), per_tet_sum(with_copy), 1e-12 * first);
+  EXPECT_NE(f.elasticity.energy(with_copy), unsplit);
+}
+
 TEST(CorotatedElasticity, StiffnessIsTheDerivativeOfForcesWithRotationsFrozen) {
   const Fixture f;
   const Matrix3Xd x = rotation(-0.4, Vec3(0, 1, 1)) * perturbed(f.cage.rest_positions, 0.15, 2);
