@@ -368,6 +368,15 @@ class World {
   /// gains since the substep's start cover the excess are moved rigidly from it. Kept
   /// only where that lowers the energy. Returns the energy the substep ends with [J].
   double move_gaining_chips_rigidly(double energy, double limit, StepReport& report);
+  /// A chip's gain since the substep's start [J] (kinetic, strain and gravity).
+  struct ChipGain {
+    double joules = 0;
+    std::size_t body = 0;
+    Index fragment = 0;
+  };
+  /// The chips that gained, largest gain first; `chips` gets, per body and fragment,
+  /// nonzero for each chip.
+  std::vector<ChipGain> chip_gains(std::vector<std::vector<std::uint8_t>>& chips);
   /// Per node of body `bi`, its fragment, into m_node_fragment.
   void find_node_fragments(std::size_t bi);
   /// The first body with a non-finite position or velocity (kInvalidIndex: a projectile).

@@ -138,23 +138,18 @@ void World::keep_linear_answer() {
 /// and their velocities projected onto the rigid field, so their kinetic energy does not
 /// rise. Kept only where the world then holds less. A chip answered so loses its flex
 /// for one substep; the next substep solves it again.
-double World::move_gaining_chips_rigidly(double energy, double limit, StepReport& report) {
-  struct Gain {
-    double joules = 0;
-    std::size_t body = 0;
-    Index fragment = 0;
-  };
-  std::vector<Gain> gains;
-  std::vector<std::vector<std::uint8_t>> chips(m_bodies.size());
+std::vector<World::ChipGain> World::chip_gains(std::vector<std::vector<std::uint8_t>>& chips) {
+  std::vector<ChipGain> gains;
+  chips.assign(m_bodies.size(), {});
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
     const Body& b = m_bodies[bi];
     const Index count = b.topology.fragment_count();
-    chips[bi] = small_fragments(b.topology.tet_fragment(), count, m_settings.rigid_when_gaining_below);
+    const std::vector<Index>& tet_fragment = b.topology.tet_fragment();
+    chips[bi] = small_fragments(tet_fragment, count, m_settings.rigid_when_gaining_below);
     if (std::none_of(chips[bi].begin(), chips[bi].end(), [](std::uint8_t c) { return c != 0; })) continue;
     const ImplicitIntegrator& body = b.integrator();
     const Matrix3Xd &x0 = m_start_positions[bi], &v0 = m_substep_checkpoint[bi].velocities;
     std::vector<double> gain(count, 0.0);
-    const std::vector<Index>& tet_fragment = b.topology.tet_fragment();
     for (TetIndex t = 0; t < tet_fragment.size(); ++t) {
       if (!chips[bi][tet_fragment[t]]) continue;
       gain[tet_fragment[t]] += body.elasticity().tet_energy(body.positions(), t) - body.elasticity().tet_energy(x0, t);
@@ -170,9 +165,15 @@ double World::move_gaining_chips_rigidly(double energy, double limit, StepReport
       if (chips[bi][f] && gain[f] > 0.0) gains.push_back({gain[f], bi, f});
     }
   }
-  std::sort(gains.begin(), gains.end(), [](const Gain& a, const Gain& b) {
+  std::sort(gains.begin(), gains.end(), [](const ChipGain& a, const ChipGain& b) {
     return a.joules != b.joules ? a.joules > b.joules : std::tie(a.body, a.fragment) < std::tie(b.body, b.fragment);
   });
+  return gains;
+}
+
+double World::move_gaining_chips_rigidly(double energy, double limit, StepReport& report) {
+  std::vector<std::vector<std::uint8_t>> chips;
+  const std::vector<ChipGain> gains = chip_gains(chips);
   // The fewest chips whose gains cover the excess; where all of them do not, the chips
   // are not what gained.
   double covered = 0.0;
