@@ -135,7 +135,7 @@ std::string sphere_model_difference(const std::string& bake_options) {
   const std::string baked = value("sphere_version").value_or("1");
   if (baked == std::to_string(kSphereVersion)) return "";
   return "collision spheres of model " + baked + "; this bake makes model " + std::to_string(kSphereVersion) +
-         " (spheres that follow the solid, not the cage)";
+         " (spheres that follow the solid and reserve spheres for every render vertex)";
 }
 
 }  // namespace

@@ -293,21 +293,35 @@ std::vector<Sample> cull_surrounded(const std::vector<Sample>& samples, bool cul
   return kept;
 }
 
-/// The bundle lists spheres by tet (docs/bundle-schema.md); grid spheres before surface
-/// ones within a tet.
-void sort_by_tet(formats::Collision& c) {
-  std::vector<std::size_t> order(c.sphere_tet.size());
+/// v permuted: v[order[0]], v[order[1]], …
+template <typename T>
+void permute(std::vector<T>& v, const std::vector<std::size_t>& order) {
+  std::vector<T> sorted;
+  sorted.reserve(v.size());
+  for (const std::size_t k : order) sorted.push_back(v[k]);
+  v = std::move(sorted);
+}
+
+/// The order that sorts `tet`, keeping the order within a tet.
+std::vector<std::size_t> order_by_tet(const std::vector<TetIndex>& tet) {
+  std::vector<std::size_t> order(tet.size());
   for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return c.sphere_tet[x] < c.sphere_tet[y]; });
-  formats::Collision sorted;
-  for (const std::size_t k : order) {
-    sorted.sphere_tet.push_back(c.sphere_tet[k]);
-    sorted.sphere_barycentric.push_back(c.sphere_barycentric[k]);
-    sorted.sphere_radius.push_back(c.sphere_radius[k]);
-  }
-  c.sphere_tet = std::move(sorted.sphere_tet);
-  c.sphere_barycentric = std::move(sorted.sphere_barycentric);
-  c.sphere_radius = std::move(sorted.sphere_radius);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return tet[x] < tet[y]; });
+  return order;
+}
+
+/// The bundle lists spheres by tet (docs/bundle-schema.md), grid spheres before surface
+/// ones within a tet; the reserve too, in vertex order within a tet.
+void sort_by_tet(formats::Collision& c) {
+  const std::vector<std::size_t> spheres = order_by_tet(c.sphere_tet);
+  permute(c.sphere_tet, spheres);
+  permute(c.sphere_barycentric, spheres);
+  permute(c.sphere_radius, spheres);
+  const std::vector<std::size_t> reserve = order_by_tet(c.reserve_tet);
+  permute(c.reserve_tet, reserve);
+  permute(c.reserve_barycentric, reserve);
+  permute(c.reserve_radius, reserve);
+  permute(c.reserve_cover_tet, reserve);
 }
 
 }  // namespace
@@ -396,6 +410,13 @@ formats::Collision bake_collision(const formats::Bundle& b, const FaceRegions& r
     }
     st.surface = surface_stats.spheres;
     st.surface_shrunk = surface_stats.shrunk;
+    for (const ReserveSphere& s : reserve_spheres(b, c, winding, distance, c.target_radius, kReserveGapShare * c.target_radius)) {
+      c.reserve_tet.push_back(s.sphere.tet);
+      c.reserve_barycentric.push_back(s.sphere.barycentric);
+      c.reserve_radius.push_back(s.sphere.radius);
+      c.reserve_cover_tet.push_back(s.cover_tet);
+    }
+    st.reserve = c.reserve_tet.size();
   }
   for (std::size_t t = 0; t < cage.tet_count(); ++t) st.tets_bare += c.mass_fraction[t] > 0.0 && !has_sphere[t];
   sort_by_tet(c);

@@ -38,8 +38,12 @@ inline constexpr std::uint64_t kDefaultMaxGridPoints = 200'000'000;
 /// The sphere model, recorded in the bake options ("sphere_version") so that `status`
 /// reports bundles baked with another as stale. 1 (no key): a fifth of the median cage
 /// edge, halved per tet to 3 spheres; 2: the radius from the solid, one grid, surface
-/// spheres (issue 42).
-inline constexpr int kSphereVersion = 2;
+/// spheres (issue 42); 3: and reserve spheres (surface_spheres.h, reserve_spheres).
+inline constexpr int kSphereVersion = 3;
+
+/// A render vertex gets a reserve sphere when no sphere of its own tet passes within
+/// this share of the radius of it (docs/decisions/0076).
+inline constexpr double kReserveGapShare = 0.5;
 
 /// The default radius is this share of the cube root of the solid's volume: 4.1 mm on
 /// the 15 cm sample bunny (0.754 l), about the 4.16 mm the 987-tet cage's median edge
@@ -89,6 +93,7 @@ struct CollisionStats {
   std::size_t surface = 0;         ///< surface spheres
   std::size_t surface_shrunk = 0;  ///< surface spheres made smaller to fit a thin part
   std::size_t tets_bare = 0;       ///< tets with solid but no sphere (the player's stand-ins cover them)
+  std::size_t reserve = 0;         ///< reserve spheres (surface_spheres.h, reserve_spheres)
 };
 
 formats::Collision bake_collision(const formats::Bundle& bundle, const FaceRegions& regions,

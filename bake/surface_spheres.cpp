@@ -6,9 +6,12 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <map>
 #include <tuple>
 
 #include "common/barycentric.h"
+#include "formats/vertex_instances.h"
 
 namespace fissure::bake {
 namespace {
@@ -53,26 +56,35 @@ std::vector<Candidate> triangle_candidates(const SurfaceMesh& mesh, TriangleInde
   return out;
 }
 
-/// The sphere for surface point `sample`, or radius 0 when none fits.
-SurfaceSphere fit_sphere(const formats::Bundle& b, const WindingNumberTree& winding, const SurfaceDistance& distance,
-                         const std::vector<std::vector<std::size_t>>& instances, const Candidate& sample, double radius) {
-  const SurfaceMesh& mesh = b.render;
-  const TriangleIndex t = sample.triangle;
-  const Vec3 a = mesh.positions.col(mesh.triangles(0, t)), bb = mesh.positions.col(mesh.triangles(1, t)),
-             c = mesh.positions.col(mesh.triangles(2, t));
-  const Vec3 p = sample.weights[0] * a + sample.weights[1] * bb + sample.weights[2] * c;
-  const Vec3 normal = (bb - a).cross(c - a).normalized();  // outward: triangles run counter-clockwise seen from outside
-  // The tet that holds p: of the triangle's instances, the one p is deepest inside.
-  SurfaceSphere sphere;
+/// Rest-space point x in barycentric coordinates of the cage's tet t.
+Vec4 rest_barycentric(const formats::Bundle& b, TetIndex t, const Vec3& x) {
+  Eigen::Matrix<double, 3, 4> nodes;
+  for (int corner = 0; corner < 4; ++corner) nodes.col(corner) = b.cage.rest_positions.col(b.cage.tets(corner, t));
+  return TetBarycentricFrame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3)).coordinates(x);
+}
+
+/// The tet that holds surface point `weights` of triangle t: of the triangle's
+/// instances, the one it is deepest inside; -1 when the triangle has none.
+std::int64_t holding_tet(const formats::Bundle& b, const std::vector<std::vector<std::size_t>>& instances,
+                         TriangleIndex t, const Vec3& weights) {
+  std::int64_t tet = -1;
   double best = -std::numeric_limits<double>::infinity();
   for (const std::size_t i : instances[t]) {
-    const Vec4 beta = b.embedding.instance_barycentric[i] * sample.weights;
+    const Vec4 beta = b.embedding.instance_barycentric[i] * weights;
     if (beta.minCoeff() > best) {
       best = beta.minCoeff();
-      sphere.tet = b.embedding.instance_tet[i];
+      tet = b.embedding.instance_tet[i];
     }
   }
-  if (instances[t].empty()) return sphere;
+  return tet;
+}
+
+/// The sphere touching the surface at p (outward normal n) from inside, bound to `tet`,
+/// or radius 0 when none fits.
+SurfaceSphere fit_sphere(const formats::Bundle& b, const WindingNumberTree& winding, const SurfaceDistance& distance,
+                         const Vec3& p, const Vec3& normal, TetIndex tet, double radius) {
+  SurfaceSphere sphere;
+  sphere.tet = tet;
   for (int k = 0; k <= kSurfaceShrinks; ++k) {
     const double r = std::ldexp(radius, -k);
     const Vec3 centre = p - r * normal;
@@ -81,13 +93,90 @@ SurfaceSphere fit_sphere(const formats::Bundle& b, const WindingNumberTree& wind
     // sphere would poke out there (a thin part, a fold). As large as fits: never out.
     const double clearance = distance.distance(centre);
     if (clearance < kSurfaceFit * r) continue;
-    Eigen::Matrix<double, 3, 4> nodes;
-    for (int corner = 0; corner < 4; ++corner) nodes.col(corner) = b.cage.rest_positions.col(b.cage.tets(corner, sphere.tet));
-    sphere.barycentric = TetBarycentricFrame(nodes.col(0), nodes.col(1), nodes.col(2), nodes.col(3)).coordinates(centre);
+    sphere.barycentric = rest_barycentric(b, tet, centre);
     sphere.radius = std::min(clearance, r);
     return sphere;
   }
   return sphere;
+}
+
+/// The sphere for the cell sample `sample`, bound to the tet that holds its point.
+SurfaceSphere fit_sample(const formats::Bundle& b, const WindingNumberTree& winding, const SurfaceDistance& distance,
+                         const std::vector<std::vector<std::size_t>>& instances, const Candidate& sample, double radius) {
+  const SurfaceMesh& mesh = b.render;
+  const TriangleIndex t = sample.triangle;
+  const std::int64_t tet = holding_tet(b, instances, t, sample.weights);
+  if (tet < 0) return {};
+  const Vec3 a = mesh.positions.col(mesh.triangles(0, t)), bb = mesh.positions.col(mesh.triangles(1, t)),
+             c = mesh.positions.col(mesh.triangles(2, t));
+  const Vec3 p = sample.weights[0] * a + sample.weights[1] * bb + sample.weights[2] * c;
+  const Vec3 normal = (bb - a).cross(c - a).normalized();  // outward: triangles run counter-clockwise seen from outside
+  return fit_sphere(b, winding, distance, p, normal, static_cast<TetIndex>(tet), radius);
+}
+
+/// The reserve sphere for render vertex p (outward normal n), bound to `tet`: centred
+/// r inside along n, as large as the surface lets it be there, its surface within
+/// `miss` of p; r is halved until that holds (a sharp corner or edge needs a smaller
+/// sphere to come near its tip). Radius 0 when none does.
+SurfaceSphere fit_reserve(const formats::Bundle& b, const WindingNumberTree& winding, const SurfaceDistance& distance,
+                          const Vec3& p, const Vec3& normal, TetIndex tet, double radius, double miss) {
+  SurfaceSphere sphere;
+  sphere.tet = tet;
+  for (int k = 0; k <= kReserveShrinks; ++k) {
+    const double r = std::ldexp(radius, -k);
+    const Vec3 centre = p - r * normal;
+    if (winding.winding_number(centre) < 0.5) continue;
+    const double clearance = std::min(r, distance.distance(centre));
+    if (r - clearance > miss) continue;
+    sphere.barycentric = rest_barycentric(b, tet, centre);
+    sphere.radius = clearance;
+    return sphere;
+  }
+  return sphere;
+}
+
+/// Sphere indices by the grid cell their centre is in. A sphere whose surface passes
+/// within the gap (≤ r) of a point has its centre within 2r of it, so in the cell of
+/// the point or a neighbouring one when the cell is 2r.
+class SphereCells {
+ public:
+  explicit SphereCells(double cell) : m_cell(cell) {}
+  void add(const Vec3& x, std::size_t index) { m_cells[key(x)].push_back(index); }
+  template <typename F>
+  void for_each_near(const Vec3& x, const F& f) const {
+    const auto [i, j, k] = key(x);
+    for (std::int64_t di = -1; di <= 1; ++di) {
+      for (std::int64_t dj = -1; dj <= 1; ++dj) {
+        for (std::int64_t dk = -1; dk <= 1; ++dk) {
+          const auto it = m_cells.find({i + di, j + dj, k + dk});
+          if (it == m_cells.end()) continue;
+          for (const std::size_t index : it->second) f(index);
+        }
+      }
+    }
+  }
+
+ private:
+  using Key = std::array<std::int64_t, 3>;
+  [[nodiscard]] Key key(const Vec3& x) const {
+    const Vec3 g = (x / m_cell).array().floor();
+    return {static_cast<std::int64_t>(g.x()), static_cast<std::int64_t>(g.y()), static_cast<std::int64_t>(g.z())};
+  }
+  double m_cell;
+  std::map<Key, std::vector<std::size_t>> m_cells;
+};
+
+/// Per render vertex, its outward normal: the sum of its triangles' area vectors
+/// (zero where they cancel).
+std::vector<Vec3> vertex_normals(const SurfaceMesh& mesh) {
+  std::vector<Vec3> normal(mesh.vertex_count(), Vec3::Zero());
+  for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+    const Vec3 a = mesh.positions.col(mesh.triangles(0, t)), bb = mesh.positions.col(mesh.triangles(1, t)),
+               c = mesh.positions.col(mesh.triangles(2, t));
+    const Vec3 area = (bb - a).cross(c - a);
+    for (int corner = 0; corner < 3; ++corner) normal[mesh.triangles(corner, t)] += area;
+  }
+  return normal;
 }
 
 }  // namespace
@@ -117,7 +206,7 @@ std::vector<SurfaceSphere> surface_spheres(const formats::Bundle& b, const Windi
   for (std::size_t i = 0; i < b.embedding.instance_count(); ++i) instances[b.embedding.instance_triangle[i]].push_back(i);
   std::vector<SurfaceSphere> fitted(samples.size());
   tbb::parallel_for(std::size_t{0}, samples.size(),
-                    [&](std::size_t s) { fitted[s] = fit_sphere(b, winding, distance, instances, samples[s], radius); });
+                    [&](std::size_t s) { fitted[s] = fit_sample(b, winding, distance, instances, samples[s], radius); });
   SurfaceSphereStats local;
   SurfaceSphereStats& st = stats ? *stats : local;
   std::vector<SurfaceSphere> spheres;
@@ -131,6 +220,49 @@ std::vector<SurfaceSphere> surface_spheres(const formats::Bundle& b, const Windi
   }
   st.spheres = spheres.size();
   return spheres;
+}
+
+std::vector<ReserveSphere> reserve_spheres(const formats::Bundle& b, const formats::Collision& c,
+                                           const WindingNumberTree& winding, const SurfaceDistance& distance,
+                                           double radius, double gap) {
+  const std::vector<formats::VertexInstance> held = formats::vertex_instances(b);
+  const std::vector<Vec3> normal = vertex_normals(b.render);
+  const auto centre = [&](TetIndex t, const Vec4& beta) {
+    Vec3 x = Vec3::Zero();
+    for (int corner = 0; corner < 4; ++corner) x += beta[corner] * b.cage.rest_positions.col(b.cage.tets(corner, t));
+    return x;
+  };
+  // Each tet's spheres (the bundle's, then the reserve made so far), and every sphere of
+  // the bundle by grid cell, for the nearest one of any tet.
+  std::vector<std::vector<std::pair<Vec3, double>>> of_tet(b.cage.tet_count());
+  SphereCells cells(2.0 * radius);
+  for (std::size_t k = 0; k < c.sphere_tet.size(); ++k) {
+    const Vec3 x = centre(c.sphere_tet[k], c.sphere_barycentric[k]);
+    of_tet[c.sphere_tet[k]].emplace_back(x, c.sphere_radius[k]);
+    cells.add(x, k);
+  }
+  std::vector<ReserveSphere> reserve;
+  for (std::size_t v = 0; v < held.size(); ++v) {
+    if (held[v].instance == formats::kNoInstance || !(normal[v].squaredNorm() > 0.0)) continue;
+    const TetIndex t = b.embedding.instance_tet[held[v].instance];
+    const Vec3 p = b.render.positions.col(static_cast<Eigen::Index>(v));
+    double own = std::numeric_limits<double>::infinity();  // from p to the surface of t's spheres
+    for (const auto& [x, r] : of_tet[t]) own = std::min(own, (x - p).norm() - r);
+    if (own <= gap) continue;
+    ReserveSphere s{fit_reserve(b, winding, distance, p, normal[v].normalized(), t, radius, 0.5 * gap)};
+    if (!(s.sphere.radius > 0.0)) continue;
+    double nearest = gap;
+    cells.for_each_near(p, [&](std::size_t k) {
+      const double d = (centre(c.sphere_tet[k], c.sphere_barycentric[k]) - p).norm() - c.sphere_radius[k];
+      if (d <= nearest) {
+        nearest = d;
+        s.cover_tet = c.sphere_tet[k];
+      }
+    });
+    of_tet[t].emplace_back(centre(t, s.sphere.barycentric), s.sphere.radius);
+    reserve.push_back(s);
+  }
+  return reserve;
 }
 
 }  // namespace fissure::bake

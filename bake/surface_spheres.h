@@ -27,6 +27,10 @@
 
 namespace fissure::bake {
 
+/// How many times a reserve sphere may be halved to come within its miss of a vertex
+/// (r / 256: 16 µm on the sample bunny).
+inline constexpr int kReserveShrinks = 8;
+
 /// How many times a surface sphere may be halved to fit a thin part of the solid.
 inline constexpr int kSurfaceShrinks = 2;
 /// A surface sphere fits when its centre's distance to the surface is at least this
@@ -51,5 +55,27 @@ struct SurfaceSphereStats {
 std::vector<SurfaceSphere> surface_spheres(const formats::Bundle& bundle, const WindingNumberTree& winding,
                                            const SurfaceDistance& distance, double radius, double spacing,
                                            SurfaceSphereStats* stats = nullptr);
+
+struct ReserveSphere {
+  SurfaceSphere sphere;
+  /// The tet of the sphere (of `c`) that covers the vertex while its tet is joined to
+  /// it, the nearest within the gap; kInvalidIndex where none does.
+  TetIndex cover_tet = kInvalidIndex;
+};
+
+/// Reserve spheres (issue 42). The player moves each render vertex with the tet it is
+/// deepest inside (formats::vertex_instances), and a one-tet fragment has only that
+/// tet's spheres; a vertex covered by a sphere of a neighbouring tet (its cell's sample
+/// fell there) is bare once a crack parts the two. On the sample a one-tet chip rested
+/// with a corner 14 mm in the ground, 18 mm from its tet's two spheres. So each vertex
+/// that no sphere of its own tet (those of `c`, then the reserve made before it, in
+/// vertex order) passes within `gap` of gets one: touching the surface at the vertex
+/// from inside along its normal (fit as the surface spheres, up to `radius`), halved
+/// until its surface passes within gap / 2 of the vertex. The player holds one back
+/// until fracture exposes its tet or parts it from its cover tet. A vertex no sphere
+/// fits stays bare.
+std::vector<ReserveSphere> reserve_spheres(const formats::Bundle& b, const formats::Collision& c,
+                                           const WindingNumberTree& winding, const SurfaceDistance& distance,
+                                           double radius, double gap);
 
 }  // namespace fissure::bake

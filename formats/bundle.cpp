@@ -64,6 +64,11 @@ void write_collision(hid_t file, const Collision& c) {
   h5::write_dataset(group.id(), "sphere_barycentric", ElementType::F64, {static_cast<hsize_t>(c.sphere_tet.size()), 4},
                     c.sphere_barycentric.data());
   write_vector(group.id(), "sphere_radius", ElementType::F64, c.sphere_radius);
+  write_vector(group.id(), "reserve_tet", ElementType::U32, c.reserve_tet);
+  h5::write_dataset(group.id(), "reserve_barycentric", ElementType::F64, {static_cast<hsize_t>(c.reserve_tet.size()), 4},
+                    c.reserve_barycentric.data());
+  write_vector(group.id(), "reserve_radius", ElementType::F64, c.reserve_radius);
+  write_vector(group.id(), "reserve_cover_tet", ElementType::U32, c.reserve_cover_tet);
   write_vector(group.id(), "mass_fraction", ElementType::F64, c.mass_fraction);
   h5::write_dataset(group.id(), "center_of_mass", ElementType::F64, {static_cast<hsize_t>(c.center_of_mass.size()), 4},
                     c.center_of_mass.data());
@@ -394,6 +399,17 @@ Collision read_collision(const Reader& reader, const Bundle& b) {
   c.sphere_barycentric.resize(spheres);
   h5::read_dataset(g.id(), "sphere_barycentric", ElementType::F64, c.sphere_barycentric.data());
   c.sphere_radius = reader.read_vector<double>(g.id(), where, "sphere_radius", ElementType::F64, spheres);
+  if (h5::has_link(g.id(), "reserve_tet")) {  // bundles from sphere_version 3 on
+    c.reserve_tet = reader.read_vector<TetIndex>(g.id(), where, "reserve_tet", ElementType::U32);
+    const hsize_t reserves = c.reserve_tet.size();
+    reader.check_range(c.reserve_tet.data(), reserves, 1, b.cage.tet_count(), where + "/reserve_tet", false);
+    reader.expect_shape(g.id(), where, "reserve_barycentric", {4}, reserves);
+    c.reserve_barycentric.resize(reserves);
+    h5::read_dataset(g.id(), "reserve_barycentric", ElementType::F64, c.reserve_barycentric.data());
+    c.reserve_radius = reader.read_vector<double>(g.id(), where, "reserve_radius", ElementType::F64, reserves);
+    c.reserve_cover_tet = reader.read_vector<TetIndex>(g.id(), where, "reserve_cover_tet", ElementType::U32, reserves);
+    reader.check_range(c.reserve_cover_tet.data(), reserves, 1, b.cage.tet_count(), where + "/reserve_cover_tet", true);
+  }
   const auto tets = static_cast<hsize_t>(b.cage.tet_count());
   c.mass_fraction = reader.read_vector<double>(g.id(), where, "mass_fraction", ElementType::F64, tets);
   reader.expect_shape(g.id(), where, "center_of_mass", {4}, tets);

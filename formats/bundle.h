@@ -135,6 +135,15 @@ struct Collision {
   std::vector<TetIndex> sphere_tet;           ///< #S
   std::vector<Vec4> sphere_barycentric;       ///< #S centre, barycentric in its tet
   std::vector<double> sphere_radius;          ///< #S [m]; target / 2^k after k halvings
+  /// Reserve spheres (#R, same layout, sorted by tet): each covers a render vertex that
+  /// no sphere of the tet holding it reaches (bake/surface_spheres.h, reserve_spheres).
+  /// The player holds one back until fracture exposes its tet or parts it from
+  /// `reserve_cover_tet`, the tet of the sphere that covers the vertex meanwhile
+  /// (kInvalidIndex where none does). Empty in bundles baked before them.
+  std::vector<TetIndex> reserve_tet;
+  std::vector<Vec4> reserve_barycentric;
+  std::vector<double> reserve_radius;
+  std::vector<TetIndex> reserve_cover_tet;
   std::vector<double> mass_fraction;          ///< #T: volume(tet ∩ solid) / volume(tet)
   std::vector<Vec4> center_of_mass;           ///< #T: centroid of tet ∩ solid, barycentric (the tet's centroid if empty)
   /// Tets next to a degenerate face, whose mass was estimated on a lattice instead

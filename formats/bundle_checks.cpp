@@ -186,34 +186,41 @@ VerifyCheck check_walls(const Bundle& b) {
   return check;
 }
 
+/// Whether a sphere's centre is within the target radius of each face's plane of its
+/// tet (a surface sphere is centred up to that far from the surface point its tet
+/// holds) and its radius in (0, target]. The distance to the plane of the face opposite
+/// corner i is βᵢ times that corner's height 3V / Aᵢ.
+bool sphere_fits(const Bundle& b, TetIndex t, const Vec4& beta, double radius) {
+  const double target = b.collision->target_radius;
+  Vec3 x[4];
+  for (int i = 0; i < 4; ++i) x[i] = b.cage.rest_positions.col(b.cage.tets(i, t));
+  const double six_volume = std::abs((x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])));
+  bool reaches = six_volume > 0.0;
+  for (int i = 0; i < 4 && reaches; ++i) {
+    const Vec3 &p = x[(i + 1) % 4], &q = x[(i + 2) % 4], &r = x[(i + 3) % 4];
+    const double height = six_volume / (q - p).cross(r - p).norm();
+    reaches = beta[i] * height >= -target * (1 + 1e-9) - 1e-12 * height;
+  }
+  return reaches && std::abs(beta.sum() - 1.0) <= 1e-12 && radius > 0.0 && radius <= target * (1 + 1e-12);
+}
+
 VerifyCheck check_spheres(const Bundle& b) {
   VerifyCheck check{"collision-spheres", true, ""};
   const Collision& c = *b.collision;
-  for (std::size_t s = 0; s < c.sphere_tet.size() && check.passed; ++s) {
-    const Vec4& beta = c.sphere_barycentric[s];
-    // A sphere's centre is within the target radius of each face's plane of its tet (a
-    // surface sphere is centred up to that far from the surface point its tet holds).
-    // The distance to the plane of the face opposite corner i is βᵢ times that corner's
-    // height 3V / Aᵢ.
-    const TetIndex t = c.sphere_tet[s];
-    Vec3 x[4];
-    for (int i = 0; i < 4; ++i) x[i] = b.cage.rest_positions.col(b.cage.tets(i, t));
-    const double six_volume = std::abs((x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])));
-    bool reaches = six_volume > 0.0;
-    for (int i = 0; i < 4 && reaches; ++i) {
-      const Vec3 &p = x[(i + 1) % 4], &q = x[(i + 2) % 4], &r = x[(i + 3) % 4];
-      const double height = six_volume / (q - p).cross(r - p).norm();
-      reaches = beta[i] * height >= -c.target_radius * (1 + 1e-9) - 1e-12 * height;
-    }
-    if (!reaches || !(std::abs(beta.sum() - 1.0) <= 1e-12) || !(c.sphere_radius[s] > 0.0) ||
-        !(c.sphere_radius[s] <= c.target_radius * (1 + 1e-12))) {
+  const auto check_set = [&](const std::string& kind, const std::vector<TetIndex>& tet, const std::vector<Vec4>& beta,
+                             const std::vector<double>& radius) {
+    for (std::size_t s = 0; s < tet.size() && check.passed; ++s) {
+      if (sphere_fits(b, tet[s], beta[s], radius[s])) continue;
       check.passed = false;
-      check.detail = "sphere " + std::to_string(s) + " of tet " + std::to_string(t) +
+      check.detail = kind + " " + std::to_string(s) + " of tet " + std::to_string(tet[s]) +
                      " is centred farther than the target radius from its tet, or has a bad radius";
     }
-  }
+  };
+  check_set("sphere", c.sphere_tet, c.sphere_barycentric, c.sphere_radius);
+  check_set("reserve sphere", c.reserve_tet, c.reserve_barycentric, c.reserve_radius);
   if (check.passed) {
-    check.detail = std::to_string(c.sphere_tet.size()) + " spheres centred within the target radius of their tets, radii ≤ the target " +
+    check.detail = std::to_string(c.sphere_tet.size()) + " spheres and " + std::to_string(c.reserve_tet.size()) +
+                   " in reserve centred within the target radius of their tets, radii ≤ the target " +
                    format_double(c.target_radius);
   }
   return check;

@@ -178,7 +178,7 @@ void print_summary(const sim::World& world, const RunRecord& run) {
                 d->momentum_final.norm(), d->angular_initial.norm(), d->angular_final.norm());
   }
   std::printf("fracture   %zu splits, %zu faces exposed, %u fragments", s.splits, s.exposed, world.fragment_count());
-  if (s.stand_in_spheres > 0) std::printf("; %zu spheres added to exposed tets that had none", s.stand_in_spheres);
+  if (s.stand_in_spheres > 0) std::printf("; %zu spheres added to exposed tets (stand-ins, reserve)", s.stand_in_spheres);
   if (world.settings().sleep.speed > 0.0) {
     std::printf("; %zu asleep at the end, %zu steps taken again to wake one", s.fragments_asleep, s.retaken_to_wake);
   }

@@ -7,6 +7,7 @@
 #include "common/log.h"
 #include "formats/bundle.h"
 #include "formats/bundle_checks.h"
+#include "formats/vertex_instances.h"
 
 namespace fissure::player {
 
@@ -16,7 +17,6 @@ sim::ContactMaterial contact(double restitution, double friction, double rolling
   return {restitution, friction, rolling_resistance};
 }
 
-/// Every render vertex once, bound to the first (triangle, tet) instance that has it.
 sim::ExactResolve exact_resolve(formats::SceneExact exact) {
   switch (exact) {
     case formats::SceneExact::Never: return sim::ExactResolve::Never;
@@ -26,31 +26,18 @@ sim::ExactResolve exact_resolve(formats::SceneExact exact) {
   return sim::ExactResolve::Solve;
 }
 
+/// Every render vertex once, bound to the tet that moves it (formats::vertex_instances).
 sim::EmbeddedPoints render_vertices(const formats::Bundle& bundle) {
+  // Each vertex follows the tet it is deepest inside: the first instance's tet held only
+  // 1,369 of the sample bunny's 2,502 vertices, and a vertex carried by a tet that does
+  // not hold it (coordinates down to -0.88) went where nothing is drawn once fracture
+  // freed that tet (issue 42: 24 mm "in the ground").
   const auto& e = bundle.embedding;
-  const std::size_t vertex_count = bundle.render.vertex_count();
-  // A vertex's triangles are drawn in every tet they cross, each instance clipped to its
-  // tet, so the vertex is drawn only by the tets that hold it. Of its instances' tets, it
-  // follows the one it is deepest inside (largest least barycentric coordinate): the first
-  // instance's tet held it for only 1,369 of the sample bunny's 2,502 vertices, and a
-  // vertex carried by a tet that does not hold it (coordinates down to -0.88) went where
-  // nothing is drawn once fracture freed that tet (issue 42: 24 mm "in the ground").
-  std::vector<std::size_t> first(vertex_count, SIZE_MAX);
-  std::vector<Vec4> barycentric(vertex_count);
-  for (std::size_t i = 0; i < e.instance_count(); ++i) {
-    for (int corner = 0; corner < 3; ++corner) {
-      const Index v = bundle.render.triangles(corner, e.instance_triangle[i]);
-      const Vec4 beta = e.instance_barycentric[i].col(corner);
-      if (first[v] != SIZE_MAX && !(beta.minCoeff() > barycentric[v].minCoeff())) continue;
-      first[v] = i;
-      barycentric[v] = beta;
-    }
-  }
   sim::EmbeddedPoints points;
-  for (std::size_t v = 0; v < vertex_count; ++v) {
-    if (first[v] == SIZE_MAX) continue;  // a vertex no triangle uses
-    points.tet.push_back(e.instance_tet[first[v]]);
-    points.barycentric.push_back(barycentric[v]);
+  for (const formats::VertexInstance& held : formats::vertex_instances(bundle)) {
+    if (held.instance == formats::kNoInstance) continue;  // a vertex no triangle uses
+    points.tet.push_back(e.instance_tet[held.instance]);
+    points.barycentric.push_back(e.instance_barycentric[held.instance].col(held.corner));
     points.radius.push_back(0.0);
   }
   return points;
@@ -120,6 +107,11 @@ sim::BodyDescription describe(const formats::Scene& scene, std::size_t index, co
     d.spheres.barycentric = c.sphere_barycentric;
     d.spheres.radius = c.sphere_radius;
     for (double& r : d.spheres.radius) r *= object.scale;
+    d.reserve_spheres.tet = c.reserve_tet;
+    d.reserve_spheres.barycentric = c.reserve_barycentric;
+    d.reserve_spheres.radius = c.reserve_radius;
+    for (double& r : d.reserve_spheres.radius) r *= object.scale;
+    d.reserve_cover = c.reserve_cover_tet;
     if (scene.features.mass_weighting) d.mass = sim::MassDistribution{c.mass_fraction, c.center_of_mass};
   } else {
     log_warning(where + ": the bundle has no collision stage: using one inscribed sphere per tet and uniform mass");
@@ -171,7 +163,7 @@ constexpr std::size_t kMaxSceneTets = 1'000'000;
 /// and the limit when a total passes its limit.
 void count_scene_size(const formats::Scene& scene, std::size_t i, const formats::Bundle& bundle, std::size_t& spheres,
                       std::size_t& tets) {
-  spheres += bundle.collision ? bundle.collision->sphere_tet.size() : 0;
+  spheres += bundle.collision ? bundle.collision->sphere_tet.size() + bundle.collision->reserve_tet.size() : 0;
   tets += bundle.cage.tet_count();
   const auto refuse = [&](const char* what, std::size_t count, std::size_t limit) {
     throw Error(scene.file.string() + ":" + std::to_string(scene.objects[i].line) + ": object[" + std::to_string(i) +

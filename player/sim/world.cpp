@@ -55,6 +55,21 @@ void check_points(const EmbeddedPoints& points, std::size_t tet_count, const std
   }
 }
 
+/// Each reserve sphere has a cover tet or kInvalidIndex.
+void check_reserve_cover(const std::vector<TetIndex>& cover, std::size_t reserve_count, std::size_t tet_count,
+                         const std::string& what) {
+  if (cover.size() != reserve_count) {
+    throw Error(what + ": " + std::to_string(cover.size()) + " cover tets for " + std::to_string(reserve_count) + " spheres",
+                "rebake the bundle");
+  }
+  for (std::size_t k = 0; k < cover.size(); ++k) {
+    if (cover[k] != kInvalidIndex && cover[k] >= tet_count) {
+      throw Error(what + ": sphere " + std::to_string(k) + " has cover tet " + std::to_string(cover[k]) + ", out of range",
+                  "rebake the bundle; `fissure-bake verify` checks collision data");
+    }
+  }
+}
+
 }  // namespace
 
 World::World(std::vector<BodyDescription> bodies, Environment environment, std::vector<Projectile> projectiles,
@@ -84,7 +99,9 @@ World::World(std::vector<BodyDescription> bodies, Environment environment, std::
       throw Error(where + " has no render vertices for the exact collision mode", "use collision_mode = \"spheres\"");
     }
     FractureTopology topology(d.tets, static_cast<Index>(d.rest.cols()));
-    m_stand_ins.emplace_back(d.rest, d.tets, spheres, d.mass ? &*d.mass : nullptr);
+    check_points(d.reserve_spheres, tet_count, where + " reserve spheres");
+    check_reserve_cover(d.reserve_cover, d.reserve_spheres.size(), tet_count, where + " reserve spheres");
+    m_stand_ins.emplace_back(d.rest, d.tets, spheres, d.mass ? &*d.mass : nullptr, d.reserve_spheres, d.reserve_cover);
     m_bodies.emplace_back(d.name, std::move(solver), std::move(topology),
                           FractureSettings{d.toughness, settings.max_splits_per_step}, d.contact, std::move(spheres),
                           std::move(d.vertices));
@@ -266,7 +283,7 @@ void World::fracture_bodies(StepReport& report) {
     fracture(b.integrator(), b.topology, b.fracture, splits, exposed);
     // Before the overlaps are recorded: a stand-in may overlap a sphere across the crack.
     if (m_settings.collision_points == CollisionPoints::Spheres) {
-      report.stand_in_spheres += static_cast<int>(m_stand_ins[bi].add_for(exposed, b.spheres));
+      report.stand_in_spheres += static_cast<int>(m_stand_ins[bi].add_for(exposed, b.topology.tet_fragment(), b.spheres));
     }
     if (holds_overlaps && b.topology.fragment_count() > fragments_before) record_split_overlaps(b, m_fragment_before);
     for (const NodeSplit& s : splits) report.splits.emplace_back(bi, s);
@@ -470,7 +487,8 @@ void World::set_settings(const WorldSettings& settings) {
   // Back to spheres: the tets exposed meanwhile get theirs now.
   if (settings.collision_points == CollisionPoints::Spheres && m_settings.collision_points != CollisionPoints::Spheres) {
     for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
-      m_stand_ins[bi].add_for(fractured_faces(m_bodies[bi].topology), m_bodies[bi].spheres);
+      const FractureTopology& topology = m_bodies[bi].topology;
+      m_stand_ins[bi].add_for(fractured_faces(topology), topology.tet_fragment(), m_bodies[bi].spheres);
     }
   }
   m_settings = settings;

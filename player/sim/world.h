@@ -33,6 +33,11 @@ struct BodyDescription {
   ContactMaterial contact;
   std::optional<MassDistribution> mass;  ///< solid fraction and centre of mass per tet
   EmbeddedPoints spheres;        ///< the bake's collision spheres (empty: see World)
+  /// The bake's reserve spheres and each one's cover tet (kInvalidIndex: none), held
+  /// back until fracture exposes their tet or parts the two
+  /// (formats::Collision::reserve_tet).
+  EmbeddedPoints reserve_spheres;
+  std::vector<TetIndex> reserve_cover;
   EmbeddedPoints vertices;       ///< every render vertex (radius 0), for the exact mode and penetration
   std::vector<NodeIndex> pinned;
   Matrix3Xd velocity;            ///< 3×#N initial node velocities (empty: at rest)
@@ -171,7 +176,7 @@ struct StepReport {
   int energy_halvings = 0;   ///< substeps taken again as two halves because they gained energy
   int chips_moved_rigidly = 0;  ///< chips moved rigidly because they gained (WorldSettings::rigid_when_gaining_below)
   int exact_substeps_rejected = 0;  ///< of those, the ones whose contacts then gained more: the linear answer kept
-  int stand_in_spheres = 0;  ///< spheres given to tets that fracture exposed with none (stand_in_spheres.h)
+  int stand_in_spheres = 0;  ///< spheres given to tets fracture exposed: stand-ins and the bake's reserve (stand_in_spheres.h)
   std::size_t fragments_asleep = 0;  ///< held still after the step (sleeping.h)
   int retaken_to_wake = 0;  ///< times the step was taken again because it closed on a sleeping island
 };
@@ -385,8 +390,9 @@ class World {
   void keep_previous_positions(const StepReport& report);
 
   std::vector<Body> m_bodies;
-  /// Per body, the spheres its bare tets get when exposed (collision mode Spheres only:
-  /// the render-vertex mode is exact to the render surface, and leaves interior tets bare).
+  /// Per body, the spheres its tets get when exposed: stand-ins for bare tets and the
+  /// bake's reserve (collision mode Spheres only: the render-vertex mode is exact to the
+  /// render surface, and leaves interior tets bare).
   std::vector<StandInSpheres> m_stand_ins;
   Environment m_environment;
   std::vector<Projectile> m_projectiles;

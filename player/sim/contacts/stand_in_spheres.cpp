@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/assert.h"
 #include "common/tet_mesh.h"
 
 namespace fissure::sim {
@@ -46,8 +47,10 @@ EmbeddedPoints inscribed_spheres(const Matrix3Xd& rest, const Matrix4Xu& tets) {
 }
 
 StandInSpheres::StandInSpheres(const Matrix3Xd& rest, const Matrix4Xu& tets, const EmbeddedPoints& points,
-                               const MassDistribution* mass) {
+                               const MassDistribution* mass, const EmbeddedPoints& reserve,
+                               std::span<const TetIndex> reserve_cover) {
   const auto tet_count = static_cast<std::size_t>(tets.cols());
+  hold_reserve(tet_count, reserve, reserve_cover);
   m_barycentric.assign(tet_count, Vec4::Constant(0.25));
   m_radius.assign(tet_count, 0.0);
   m_given.assign(tet_count, 0);
@@ -72,22 +75,56 @@ StandInSpheres::StandInSpheres(const Matrix3Xd& rest, const Matrix4Xu& tets, con
   }
 }
 
-std::size_t StandInSpheres::add_for(std::span<const TetFace> exposed, EmbeddedPoints& points) {
-  std::size_t added = 0;
+void StandInSpheres::hold_reserve(std::size_t tet_count, const EmbeddedPoints& reserve, std::span<const TetIndex> cover) {
+  FISSURE_ASSERT(cover.size() == reserve.size());
+  m_reserve = reserve;
+  m_reserve_cover.assign(cover.begin(), cover.end());
+  m_reserve_given.assign(reserve.size(), 0);
+  m_reserve_start.assign(tet_count + 1, 0);
+  for (const TetIndex t : reserve.tet) ++m_reserve_start[t + 1];
+  for (std::size_t t = 0; t < tet_count; ++t) m_reserve_start[t + 1] += m_reserve_start[t];
+  m_reserve_of_tet.resize(reserve.size());
+  std::vector<std::size_t> next(m_reserve_start.begin(), m_reserve_start.end() - 1);
+  for (std::size_t k = 0; k < reserve.size(); ++k) m_reserve_of_tet[next[reserve.tet[k]]++] = k;
+}
+
+void StandInSpheres::give(std::size_t reserve, EmbeddedPoints& points) {
+  if (m_reserve_given[reserve]) return;
+  m_log.push_back({points.size(), false, reserve});
+  points.tet.push_back(m_reserve.tet[reserve]);
+  points.barycentric.push_back(m_reserve.barycentric[reserve]);
+  points.radius.push_back(m_reserve.radius[reserve]);
+  m_reserve_given[reserve] = 1;
+}
+
+std::size_t StandInSpheres::add_for(std::span<const TetFace> exposed, std::span<const Index> tet_fragment,
+                                    EmbeddedPoints& points) {
+  const std::size_t before = points.size();
   for (const TetFace& face : exposed) {
     const TetIndex t = face.tet;
-    if (t >= m_radius.size() || !(m_radius[t] > 0.0) || m_given[t]) continue;
-    points.tet.push_back(t);
-    points.barycentric.push_back(m_barycentric[t]);
-    points.radius.push_back(m_radius[t]);
-    m_given[t] = 1;
-    ++added;
+    if (t >= m_radius.size()) continue;
+    if (m_radius[t] > 0.0 && !m_given[t]) {
+      m_log.push_back({points.size(), true, t});
+      points.tet.push_back(t);
+      points.barycentric.push_back(m_barycentric[t]);
+      points.radius.push_back(m_radius[t]);
+      m_given[t] = 1;
+    }
+    for (std::size_t i = m_reserve_start[t]; i < m_reserve_start[t + 1]; ++i) give(m_reserve_of_tet[i], points);
   }
-  return added;
+  for (std::size_t k = 0; k < m_reserve.size(); ++k) {
+    const TetIndex cover = m_reserve_cover[k];
+    if (cover != kInvalidIndex && tet_fragment[m_reserve.tet[k]] != tet_fragment[cover]) give(k, points);
+  }
+  return points.size() - before;
 }
 
 void StandInSpheres::truncate(EmbeddedPoints& points, std::size_t count) {
-  for (std::size_t k = count; k < points.size(); ++k) m_given[points.tet[k]] = 0;
+  while (!m_log.empty() && m_log.back().point >= count) {
+    const Given& g = m_log.back();
+    (g.stand_in ? m_given : m_reserve_given)[g.index] = 0;
+    m_log.pop_back();
+  }
   points.tet.resize(std::min(count, points.size()));
   points.barycentric.resize(points.tet.size());
   points.radius.resize(points.tet.size());
@@ -96,6 +133,7 @@ void StandInSpheres::truncate(EmbeddedPoints& points, std::size_t count) {
 std::size_t StandInSpheres::reserved() const {
   std::size_t count = 0;
   for (std::size_t t = 0; t < m_radius.size(); ++t) count += m_radius[t] > 0.0 && !m_given[t] ? 1 : 0;
+  for (const std::uint8_t given : m_reserve_given) count += given ? 0 : 1;
   return count;
 }
 

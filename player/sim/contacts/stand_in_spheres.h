@@ -12,6 +12,14 @@
 /// collision point keeps one sphere in reserve, and gets it the moment one of its faces
 /// is exposed: the scene pays nothing while the body is whole and the bundle stays as
 /// it was baked.
+///
+/// The bake's reserve spheres (formats::Collision::reserve_tet) are held too: each
+/// covers a render vertex that a sphere of another tet, its cover tet, covers while the
+/// two are joined (issue 42: a one-tet chip rested with a corner 14 mm in the ground,
+/// 18 mm from its tet's spheres). One is given with its tet's stand-in, when a face of
+/// its tet is exposed, and also the moment fracture puts its tet and its cover tet in
+/// different fragments: a crack that parts them need not pass through its own tet
+/// (docs/decisions/0076).
 
 #include <cstddef>
 #include <cstdint>
@@ -31,26 +39,45 @@ EmbeddedPoints inscribed_spheres(const Matrix3Xd& rest, const Matrix4Xu& tets);
 class StandInSpheres {
  public:
   StandInSpheres() = default;
-  /// The reserve of every tet that has no point in `points` and holds solid (`mass`'s
-  /// fraction above 0; every tet without `mass`). Its sphere sits at the solid's
-  /// centre of mass (the centroid without `mass`), as large as fits in the tet there,
-  /// scaled by the cube root of the solid fraction.
+  /// The stand-in of every tet that has no point in `points` and holds solid (`mass`'s
+  /// fraction above 0; every tet without `mass`): a sphere at the solid's centre of mass
+  /// (the centroid without `mass`), as large as fits in the tet there, scaled by the
+  /// cube root of the solid fraction. And the bake's `reserve` spheres, with each one's
+  /// cover tet (`reserve_cover`, as many; kInvalidIndex: none).
   StandInSpheres(const Matrix3Xd& rest, const Matrix4Xu& tets, const EmbeddedPoints& points,
-                 const MassDistribution* mass);
+                 const MassDistribution* mass, const EmbeddedPoints& reserve = {},
+                 std::span<const TetIndex> reserve_cover = {});
 
-  /// Appends to `points` the reserve of each tet of `exposed` that still has one, and
-  /// spends it. Returns how many it added.
-  std::size_t add_for(std::span<const TetFace> exposed, EmbeddedPoints& points);
+  /// Appends to `points`, and spends, the stand-in and reserve spheres of each tet of
+  /// `exposed`, then every reserve sphere whose tet `tet_fragment` puts in another
+  /// fragment than its cover tet. Returns how many it added.
+  std::size_t add_for(std::span<const TetFace> exposed, std::span<const Index> tet_fragment, EmbeddedPoints& points);
   /// Removes the points from index `count` on (those added by a step rolled back),
   /// putting their tets' reserves back.
   void truncate(EmbeddedPoints& points, std::size_t count);
-  /// Tets that still hold a reserve.
+  /// Stand-ins and reserve spheres not yet given.
   [[nodiscard]] std::size_t reserved() const;
 
  private:
+  /// A point this class appended: a stand-in (index: its tet) or a reserve sphere.
+  struct Given {
+    std::size_t point;
+    bool stand_in;
+    std::size_t index;
+  };
+  void hold_reserve(std::size_t tet_count, const EmbeddedPoints& reserve, std::span<const TetIndex> cover);
+  /// Appends reserve sphere `reserve` unless it was given.
+  void give(std::size_t reserve, EmbeddedPoints& points);
+
   std::vector<Vec4> m_barycentric;  ///< per tet
   std::vector<double> m_radius;     ///< per tet; 0: no reserve (it has points or holds no solid)
-  std::vector<std::uint8_t> m_given;  ///< per tet: its reserve is in the points now
+  std::vector<std::uint8_t> m_given;  ///< per tet: its stand-in is in the points now
+  EmbeddedPoints m_reserve;           ///< the bake's reserve spheres
+  std::vector<TetIndex> m_reserve_cover;      ///< per reserve sphere: its cover tet, or kInvalidIndex
+  std::vector<std::uint8_t> m_reserve_given;  ///< per reserve sphere: in the points now
+  std::vector<std::size_t> m_reserve_start;   ///< per tet and one more: its range in m_reserve_of_tet
+  std::vector<std::size_t> m_reserve_of_tet;  ///< reserve spheres by tet
+  std::vector<Given> m_log;                   ///< what is in the points, in order
 };
 
 }  // namespace fissure::sim
