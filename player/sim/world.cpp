@@ -356,8 +356,9 @@ void World::collide(double dt, StepReport& report) {
     if (!b.split_overlaps.empty()) {
       forget_separated(m_start_positions[bi], b.integrator().elasticity().tets(), points, b.split_overlaps);
     }
+    const bool spheres = m_settings.collision_points == CollisionPoints::Spheres;
     collision_bodies.push_back({&b.integrator(), &points, &m_start_positions[bi], &b.topology.tet_fragment(),
-                                b.contact, &b.split_overlaps});
+                                b.contact, &b.split_overlaps, spheres ? &m_stand_ins[bi].obstacles_only() : nullptr});
   }
   CollisionSettings cs;
   cs.dt = dt;

@@ -29,7 +29,7 @@ std::vector<Candidate> candidates_near_other_pieces(std::span<const std::vector<
                                                     std::span<const std::vector<Index>> piece) {
   const auto placeable = [&](Index bi, Index k) {
     const SweptPoint& p = sweeps[bi][k];
-    return p.radius > 0.0 && p.start.allFinite() && p.end.allFinite();
+    return p.radius > 0.0 && p.start.allFinite() && p.end.allFinite() && piece[bi][k] != kInvalidIndex;
   };
   std::map<Piece, AlignedBox> piece_bounds;
   for (Index bi = 0; bi < sweeps.size(); ++bi) {

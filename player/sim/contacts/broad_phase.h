@@ -38,7 +38,7 @@ using PointPair = std::tuple<Index, Index, Index, Index>;
 
 /// The pairs of points in different pieces whose swept bounds overlap, sorted, each
 /// once. `sweeps[b][k]` is body b's point k; `piece[b][k]` the fragment that holds it.
-/// A point with radius 0 or a non-finite position meets nothing. The result depends
+/// A point with radius 0, a non-finite position or piece kInvalidIndex meets nothing. The result depends
 /// only on the input, never on how it was computed. Throws fissure::Error when more
 /// than `max_pairs` pairs overlap (bodies piled inside one another), so memory stays
 /// bounded.

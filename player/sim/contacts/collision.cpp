@@ -306,6 +306,11 @@ void self_contacts(std::span<const CollisionBody> bodies, const std::vector<std:
     const EmbeddedPoints& points = *bodies[bi].points;
     piece[bi].resize(points.size());
     for (std::size_t k = 0; k < points.size(); ++k) piece[bi][k] = (*bodies[bi].tet_fragment)[points.tet[k]];
+    if (const std::vector<std::uint8_t>* only = bodies[bi].obstacles_only) {
+      for (std::size_t k = 0; k < std::min(only->size(), points.size()); ++k) {
+        if ((*only)[k]) piece[bi][k] = kInvalidIndex;
+      }
+    }
   }
   const std::vector<PointPair> pairs = self_collision_pairs(sweeps, piece);
   counts.pairs_tested = pairs.size();

@@ -27,6 +27,9 @@ struct CollisionBody {
   ContactMaterial material;
   /// Pairs of `points` a split left overlapping (split_overlaps.h): held, never pushed apart.
   const SplitOverlaps* split_overlaps = nullptr;
+  /// Per point (shorter or null: the rest are not): meets obstacles and projectiles but
+  /// not other fragments. The bake's reserve spheres (stand_in_spheres.h).
+  const std::vector<std::uint8_t>* obstacles_only = nullptr;
 };
 
 /// One side of a contact: a point embedded in a body's tet, a projectile, or a static

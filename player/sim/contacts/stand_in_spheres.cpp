@@ -91,6 +91,8 @@ void StandInSpheres::hold_reserve(std::size_t tet_count, const EmbeddedPoints& r
 void StandInSpheres::give(std::size_t reserve, EmbeddedPoints& points) {
   if (m_reserve_given[reserve]) return;
   m_log.push_back({points.size(), false, reserve});
+  m_obstacles_only.resize(points.size() + 1, 0);
+  m_obstacles_only.back() = 1;
   points.tet.push_back(m_reserve.tet[reserve]);
   points.barycentric.push_back(m_reserve.barycentric[reserve]);
   points.radius.push_back(m_reserve.radius[reserve]);
@@ -125,6 +127,7 @@ void StandInSpheres::truncate(EmbeddedPoints& points, std::size_t count) {
     (g.stand_in ? m_given : m_reserve_given)[g.index] = 0;
     m_log.pop_back();
   }
+  m_obstacles_only.resize(std::min(count, m_obstacles_only.size()));
   points.tet.resize(std::min(count, points.size()));
   points.barycentric.resize(points.tet.size());
   points.radius.resize(points.tet.size());

@@ -55,6 +55,11 @@ class StandInSpheres {
   /// Removes the points from index `count` on (those added by a step rolled back),
   /// putting their tets' reserves back.
   void truncate(EmbeddedPoints& points, std::size_t count);
+  /// Per point of the points this appends to: whether it is a reserve sphere, which
+  /// meets obstacles and projectiles only (CollisionBody::obstacles_only). Between
+  /// fragments the solid's spheres already hold them apart; the reserve's pairs made
+  /// a pile of one-tet fragments 1.3× as slow (docs/decisions/0076).
+  [[nodiscard]] const std::vector<std::uint8_t>& obstacles_only() const { return m_obstacles_only; }
   /// Stand-ins and reserve spheres not yet given.
   [[nodiscard]] std::size_t reserved() const;
 
@@ -78,6 +83,7 @@ class StandInSpheres {
   std::vector<std::size_t> m_reserve_start;   ///< per tet and one more: its range in m_reserve_of_tet
   std::vector<std::size_t> m_reserve_of_tet;  ///< reserve spheres by tet
   std::vector<Given> m_log;                   ///< what is in the points, in order
+  std::vector<std::uint8_t> m_obstacles_only; ///< per point: a reserve sphere (up to the last one given)
 };
 
 }  // namespace fissure::sim
