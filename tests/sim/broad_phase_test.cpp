@@ -42,5 +42,19 @@ TEST(BroadPhase, APilePastThePairLimitIsAnErrorSayingHowManyBodiesAndSpheres) {
   }
 }
 
+// A point of piece kInvalidIndex (a reserve sphere: CollisionBody::obstacles_only)
+// meets no other point.
+TEST(BroadPhase, APointOfNoPieceMeetsNothing) {
+  Pile pile(4, 5);
+  pile.piece[1][2] = kInvalidIndex;
+  pile.piece[3][0] = kInvalidIndex;
+  const auto pairs = self_collision_pairs(pile.sweeps, pile.piece, 150);
+  EXPECT_EQ(pairs.size(), 6u * 25u - 2u * 15u + 1u);  // each meets 15 others, and they each other
+  for (const auto& [b0, k0, b1, k1] : pairs) {
+    EXPECT_NE(pile.piece[b0][k0], kInvalidIndex);
+    EXPECT_NE(pile.piece[b1][k1], kInvalidIndex);
+  }
+}
+
 }  // namespace
 }  // namespace fissure::sim

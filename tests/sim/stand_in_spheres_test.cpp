@@ -136,10 +136,13 @@ TEST(StandInSpheres, AReserveSphereComesWhenItsTetPartsFromItsCover) {
   EXPECT_EQ(points.tet[3], 0u);
   EXPECT_EQ(points.barycentric[3], reserve.barycentric[0]);
   EXPECT_EQ(stand_ins.add_for(std::vector<TetFace>{{0, 1}, {1, 1}}, parted, points), 0u) << "given once";
+  // Reserve spheres meet obstacles only; the baked spheres stay as they were.
+  EXPECT_EQ(stand_ins.obstacles_only(), (std::vector<std::uint8_t>{0, 0, 1, 1}));
   EXPECT_EQ(stand_ins.reserved(), 0u);
   // A rolled-back step takes back exactly what it added.
   stand_ins.truncate(points, 3);
   EXPECT_EQ(points.size(), 3u);
+  EXPECT_EQ(stand_ins.obstacles_only().size(), 3u);
   EXPECT_EQ(stand_ins.reserved(), 1u);
   ASSERT_EQ(stand_ins.add_for({}, parted, points), 1u);
   EXPECT_EQ(points.radius[3], 0.002);
