@@ -283,7 +283,8 @@ void World::fracture_bodies(StepReport& report) {
     fracture(b.integrator(), b.topology, b.fracture, splits, exposed);
     // Before the overlaps are recorded: a stand-in may overlap a sphere across the crack.
     if (m_settings.collision_points == CollisionPoints::Spheres) {
-      report.stand_in_spheres += static_cast<int>(m_stand_ins[bi].add_for(exposed, b.topology.tet_fragment(), b.spheres));
+      report.stand_in_spheres += static_cast<int>(
+          m_stand_ins[bi].add_for(exposed, b.integrator().elasticity().tets(), b.topology.tet_fragment(), b.spheres));
     }
     if (holds_overlaps && b.topology.fragment_count() > fragments_before) record_split_overlaps(b, m_fragment_before);
     for (const NodeSplit& s : splits) report.splits.emplace_back(bi, s);
@@ -489,7 +490,8 @@ void World::set_settings(const WorldSettings& settings) {
   if (settings.collision_points == CollisionPoints::Spheres && m_settings.collision_points != CollisionPoints::Spheres) {
     for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
       const FractureTopology& topology = m_bodies[bi].topology;
-      m_stand_ins[bi].add_for(fractured_faces(topology), topology.tet_fragment(), m_bodies[bi].spheres);
+      m_stand_ins[bi].add_for(fractured_faces(topology), m_bodies[bi].integrator().elasticity().tets(),
+                              topology.tet_fragment(), m_bodies[bi].spheres);
     }
   }
   m_settings = settings;

@@ -43,7 +43,7 @@ TEST(StandInSpheres, ABareTetGetsOneSphereAtItsSolidsCentreThatFitsInsideIt) {
   EXPECT_EQ(stand_ins.reserved(), 1u);
   EmbeddedPoints points;
   const std::vector<TetFace> exposed{{0, 2}, {0, 3}};  // two faces of the same tet: one sphere
-  EXPECT_EQ(stand_ins.add_for(exposed, kOneFragment, points), 1u);
+  EXPECT_EQ(stand_ins.add_for(exposed, tet.tets, kOneFragment, points), 1u);
   ASSERT_EQ(points.size(), 1u);
   EXPECT_EQ(points.barycentric[0], mass.center_of_mass[0]);
   const Vec3 centre = tet.rest * points.barycentric[0];
@@ -52,7 +52,7 @@ TEST(StandInSpheres, ABareTetGetsOneSphereAtItsSolidsCentreThatFitsInsideIt) {
   // As large as fits at the centre, scaled by the cube root of the solid fraction.
   EXPECT_NEAR(points.radius[0], std::cbrt(0.5) * nearest, 1e-12 * nearest);
   EXPECT_EQ(stand_ins.reserved(), 0u);
-  EXPECT_EQ(stand_ins.add_for(exposed, kOneFragment, points), 0u) << "a reserve is spent once";
+  EXPECT_EQ(stand_ins.add_for(exposed, tet.tets, kOneFragment, points), 0u) << "a reserve is spent once";
 }
 
 // A sliver of solid along a face has its centre of mass on that face, where no sphere
@@ -63,7 +63,7 @@ TEST(StandInSpheres, ASliverOfSolidOnAFaceStillGetsASphereInsideTheTet) {
   MassDistribution mass{{1e-4}, {Vec4(0.5, 0.3, 0.2, 0.0)}};  // on the face opposite corner 3
   StandInSpheres stand_ins(tet.rest, tet.tets, EmbeddedPoints{}, &mass);
   EmbeddedPoints points;
-  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{0, 3}}, kOneFragment, points), 1u);
+  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{0, 3}}, tet.tets, kOneFragment, points), 1u);
   const Vec4 halfway = 0.5 * (mass.center_of_mass[0] + Vec4::Constant(0.25));
   EXPECT_TRUE(points.barycentric[0].isApprox(halfway, 1e-15));
   const Vec3 centre = tet.rest * points.barycentric[0], centroid = tet.rest * Vec4::Constant(0.25);
@@ -89,7 +89,7 @@ TEST(StandInSpheres, TetsWithPointsOrWithoutSolidHaveNoReserve) {
   // the inscribed_spheres() one.
   StandInSpheres uniform(tet.rest, tet.tets, EmbeddedPoints{}, nullptr);
   EmbeddedPoints points;
-  ASSERT_EQ(uniform.add_for(std::vector<TetFace>{{0, 1}}, kOneFragment, points), 1u);
+  ASSERT_EQ(uniform.add_for(std::vector<TetFace>{{0, 1}}, tet.tets, kOneFragment, points), 1u);
   EXPECT_NEAR(points.radius[0], inscribed_spheres(tet.rest, tet.tets).radius[0], 1e-15);
 }
 
@@ -97,55 +97,60 @@ TEST(StandInSpheres, TruncatingPutsTheReservesBack) {
   const OneTet tet;
   StandInSpheres stand_ins(tet.rest, tet.tets, EmbeddedPoints{}, nullptr);
   EmbeddedPoints points;
-  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{0, 0}}, kOneFragment, points), 1u);
+  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{0, 0}}, tet.tets, kOneFragment, points), 1u);
   const double radius = points.radius[0];
   stand_ins.truncate(points, 0);
   EXPECT_EQ(points.size(), 0u);
   EXPECT_EQ(stand_ins.reserved(), 1u);
-  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{0, 0}}, kOneFragment, points), 1u);
+  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{0, 0}}, tet.tets, kOneFragment, points), 1u);
   EXPECT_EQ(points.radius[0], radius);
 }
 
 // Issue 42: a reserve sphere covers a render vertex that a sphere of its cover tet
-// covers while the two are joined. Two tets: tet 0's reserve (cover tet 1) comes the
-// moment fracture puts them in different fragments, tet 1's (no cover) when its tet is
-// exposed, each once.
-TEST(StandInSpheres, AReserveSphereComesWhenItsTetPartsFromItsCover) {
-  const OneTet one;
-  Matrix3Xd rest(3, 5);
-  rest << one.rest, Vec3(0.2, 0.2, 0.2);
-  Matrix4Xu tets(4, 2);
-  tets << 0, 1, 2, 3, 1, 2, 3, 4;
-  EmbeddedPoints baked;  // both tets have a sphere: no stand-ins
-  baked.tet = {0, 1};
-  baked.barycentric = {Vec4::Constant(0.25), Vec4::Constant(0.25)};
-  baked.radius = {0.01, 0.01};
+// covers while the two are joined. Tets 0 and 1 share a face, tet 2 is apart. Reserve A
+// (tet 0, cover 1) comes when a split parts tets 0 and 1, not when a crack only exposes
+// tet 0; B (tet 1, cover 2, sharing no node) and C (tet 2, no cover) come with their
+// tets' exposure. Each once; a rolled-back step takes back exactly what it added.
+TEST(StandInSpheres, AReserveSphereComesWhenASplitPartsItsTetFromItsCover) {
+  Matrix3Xd rest = Matrix3Xd::Random(3, 9);
+  Matrix4Xu tets(4, 3);
+  tets << 0, 1, 5,  //
+      1, 2, 6,      //
+      2, 3, 7,      //
+      3, 4, 8;
+  EmbeddedPoints baked;  // every tet has a sphere: no stand-ins
+  baked.tet = {0, 1, 2};
+  baked.barycentric.assign(3, Vec4::Constant(0.25));
+  baked.radius = {0.01, 0.01, 0.01};
   EmbeddedPoints reserve;
-  reserve.tet = {0, 1};
-  reserve.barycentric = {Vec4(0.7, 0.1, 0.1, 0.1), Vec4(0.1, 0.1, 0.1, 0.7)};
-  reserve.radius = {0.002, 0.003};
-  const std::vector<TetIndex> cover{1, kInvalidIndex};
-  StandInSpheres stand_ins(rest, tets, baked, nullptr, reserve, cover);
-  EXPECT_EQ(stand_ins.reserved(), 2u);
+  reserve.tet = {0, 1, 2};
+  reserve.barycentric = {Vec4(0.7, 0.1, 0.1, 0.1), Vec4(0.1, 0.1, 0.1, 0.7), Vec4(0.1, 0.7, 0.1, 0.1)};
+  reserve.radius = {0.002, 0.003, 0.004};
+  StandInSpheres stand_ins(rest, tets, baked, nullptr, reserve, std::vector<TetIndex>{1, 2, kInvalidIndex});
+  EXPECT_EQ(stand_ins.reserved(), 3u);
   EmbeddedPoints points = baked;
-  const std::vector<Index> joined{0, 0}, parted{0, 1};
-  EXPECT_EQ(stand_ins.add_for({}, joined, points), 0u);
-  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{1, 0}}, joined, points), 1u) << "its tet exposed";
-  EXPECT_EQ(points.radius[2], 0.003);
-  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{1, 2}}, parted, points), 1u) << "parted from its cover";
-  EXPECT_EQ(points.tet[3], 0u);
-  EXPECT_EQ(points.barycentric[3], reserve.barycentric[0]);
-  EXPECT_EQ(stand_ins.add_for(std::vector<TetFace>{{0, 1}, {1, 1}}, parted, points), 0u) << "given once";
-  // Reserve spheres meet obstacles only; the baked spheres stay as they were.
-  EXPECT_EQ(stand_ins.obstacles_only(), (std::vector<std::uint8_t>{0, 0, 1, 1}));
+  const std::vector<Index> one_piece{0, 0, 0};
+  EXPECT_EQ(stand_ins.add_for(std::vector<TetFace>{{0, 0}}, tets, one_piece, points), 0u)
+      << "a crack that exposes tet 0 but leaves it joined to tet 1";
+  Matrix4Xu split = tets;
+  split(0, 1) = 9;  // tet 1's copy of node 1: tets 0 and 1 now share 2 nodes
+  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{1, 3}}, split, one_piece, points), 2u);
+  EXPECT_EQ(points.radius[3], 0.003) << "B, with its tet's exposure";
+  EXPECT_EQ(points.radius[4], 0.002) << "A, parted from its cover";
+  EXPECT_EQ(points.barycentric[4], reserve.barycentric[0]);
+  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{2, 0}}, split, one_piece, points), 1u);
+  EXPECT_EQ(points.radius[5], 0.004);
+  EXPECT_EQ(stand_ins.add_for(std::vector<TetFace>{{0, 1}, {1, 1}, {2, 1}}, split, one_piece, points), 0u);
   EXPECT_EQ(stand_ins.reserved(), 0u);
-  // A rolled-back step takes back exactly what it added.
-  stand_ins.truncate(points, 3);
-  EXPECT_EQ(points.size(), 3u);
-  EXPECT_EQ(stand_ins.obstacles_only().size(), 3u);
-  EXPECT_EQ(stand_ins.reserved(), 1u);
-  ASSERT_EQ(stand_ins.add_for({}, parted, points), 1u);
-  EXPECT_EQ(points.radius[3], 0.002);
+  // Reserve spheres meet obstacles only; the baked spheres stay as they were.
+  EXPECT_EQ(stand_ins.obstacles_only(), (std::vector<std::uint8_t>{0, 0, 0, 1, 1, 1}));
+  stand_ins.truncate(points, 4);
+  EXPECT_EQ(points.size(), 4u);
+  EXPECT_EQ(stand_ins.obstacles_only().size(), 4u);
+  EXPECT_EQ(stand_ins.reserved(), 2u);
+  ASSERT_EQ(stand_ins.add_for(std::vector<TetFace>{{2, 0}}, split, one_piece, points), 2u);
+  EXPECT_EQ(points.radius[4], 0.004);
+  EXPECT_EQ(points.radius[5], 0.002);
 }
 
 // The hole this closes (issue 16): the bake culls the spheres deep inside a solid, so a

@@ -50,7 +50,7 @@ StandInSpheres::StandInSpheres(const Matrix3Xd& rest, const Matrix4Xu& tets, con
                                const MassDistribution* mass, const EmbeddedPoints& reserve,
                                std::span<const TetIndex> reserve_cover) {
   const auto tet_count = static_cast<std::size_t>(tets.cols());
-  hold_reserve(tet_count, reserve, reserve_cover);
+  hold_reserve(tets, reserve, reserve_cover);
   m_barycentric.assign(tet_count, Vec4::Constant(0.25));
   m_radius.assign(tet_count, 0.0);
   m_given.assign(tet_count, 0);
@@ -75,17 +75,38 @@ StandInSpheres::StandInSpheres(const Matrix3Xd& rest, const Matrix4Xu& tets, con
   }
 }
 
-void StandInSpheres::hold_reserve(std::size_t tet_count, const EmbeddedPoints& reserve, std::span<const TetIndex> cover) {
+namespace {
+
+/// How many nodes tets a and b share.
+int shared_nodes(const Matrix4Xu& tets, TetIndex a, TetIndex b) {
+  int shared = 0;
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) shared += tets(i, a) == tets(j, b) ? 1 : 0;
+  }
+  return shared;
+}
+
+}  // namespace
+
+void StandInSpheres::hold_reserve(const Matrix4Xu& tets, const EmbeddedPoints& reserve, std::span<const TetIndex> cover) {
   FISSURE_ASSERT(cover.size() == reserve.size());
+  const auto tet_count = static_cast<std::size_t>(tets.cols());
   m_reserve = reserve;
   m_reserve_cover.assign(cover.begin(), cover.end());
   m_reserve_given.assign(reserve.size(), 0);
-  m_reserve_start.assign(tet_count + 1, 0);
-  for (const TetIndex t : reserve.tet) ++m_reserve_start[t + 1];
-  for (std::size_t t = 0; t < tet_count; ++t) m_reserve_start[t + 1] += m_reserve_start[t];
-  m_reserve_of_tet.resize(reserve.size());
-  std::vector<std::size_t> next(m_reserve_start.begin(), m_reserve_start.end() - 1);
-  for (std::size_t k = 0; k < reserve.size(); ++k) m_reserve_of_tet[next[reserve.tet[k]]++] = k;
+  m_reserve_shared.assign(reserve.size(), 0);
+  for (std::size_t k = 0; k < reserve.size(); ++k) {
+    if (cover[k] != kInvalidIndex) m_reserve_shared[k] = static_cast<std::uint8_t>(shared_nodes(tets, reserve.tet[k], cover[k]));
+  }
+  // Those whose tet does not touch its cover tet (or has none) come with its exposure.
+  m_exposed_start.assign(tet_count + 1, 0);
+  for (std::size_t k = 0; k < reserve.size(); ++k) m_exposed_start[reserve.tet[k] + 1] += m_reserve_shared[k] == 0;
+  for (std::size_t t = 0; t < tet_count; ++t) m_exposed_start[t + 1] += m_exposed_start[t];
+  m_exposed.resize(m_exposed_start.back());
+  std::vector<std::size_t> next(m_exposed_start.begin(), m_exposed_start.end() - 1);
+  for (std::size_t k = 0; k < reserve.size(); ++k) {
+    if (m_reserve_shared[k] == 0) m_exposed[next[reserve.tet[k]]++] = k;
+  }
 }
 
 void StandInSpheres::give(std::size_t reserve, EmbeddedPoints& points) {
@@ -99,8 +120,8 @@ void StandInSpheres::give(std::size_t reserve, EmbeddedPoints& points) {
   m_reserve_given[reserve] = 1;
 }
 
-std::size_t StandInSpheres::add_for(std::span<const TetFace> exposed, std::span<const Index> tet_fragment,
-                                    EmbeddedPoints& points) {
+std::size_t StandInSpheres::add_for(std::span<const TetFace> exposed, const Matrix4Xu& tets,
+                                    std::span<const Index> tet_fragment, EmbeddedPoints& points) {
   const std::size_t before = points.size();
   for (const TetFace& face : exposed) {
     const TetIndex t = face.tet;
@@ -112,11 +133,15 @@ std::size_t StandInSpheres::add_for(std::span<const TetFace> exposed, std::span<
       points.radius.push_back(m_radius[t]);
       m_given[t] = 1;
     }
-    for (std::size_t i = m_reserve_start[t]; i < m_reserve_start[t + 1]; ++i) give(m_reserve_of_tet[i], points);
+    for (std::size_t i = m_exposed_start[t]; i < m_exposed_start[t + 1]; ++i) give(m_exposed[i], points);
   }
+  // Fracture splits nodes and exposes faces together: no exposure, no new parting.
+  if (exposed.empty()) return points.size() - before;
   for (std::size_t k = 0; k < m_reserve.size(); ++k) {
-    const TetIndex cover = m_reserve_cover[k];
-    if (cover != kInvalidIndex && tet_fragment[m_reserve.tet[k]] != tet_fragment[cover]) give(k, points);
+    const TetIndex t = m_reserve.tet[k], cover = m_reserve_cover[k];
+    if (m_reserve_given[k] || cover == kInvalidIndex) continue;
+    const bool split_between = m_reserve_shared[k] > 0 && shared_nodes(tets, t, cover) < m_reserve_shared[k];
+    if (split_between || tet_fragment[t] != tet_fragment[cover]) give(k, points);
   }
   return points.size() - before;
 }

@@ -16,10 +16,12 @@
 /// The bake's reserve spheres (formats::Collision::reserve_tet) are held too: each
 /// covers a render vertex that a sphere of another tet, its cover tet, covers while the
 /// two are joined (issue 42: a one-tet chip rested with a corner 14 mm in the ground,
-/// 18 mm from its tet's spheres). One is given with its tet's stand-in, when a face of
-/// its tet is exposed, and also the moment fracture puts its tet and its cover tet in
-/// different fragments: a crack that parts them need not pass through its own tet
-/// (docs/decisions/0076).
+/// 18 mm from its tet's spheres). One is given the moment a split parts its tet from
+/// its cover tet: they share fewer nodes than at rest, or lie in different fragments.
+/// Where the two share no node (or there is no cover tet), a crack can part them
+/// without passing between them, so it comes with its tet's exposure instead. Given on
+/// exposure alone, a body whose cracks opened without breaking it carried every
+/// exposed tet's reserve (docs/decisions/0076).
 
 #include <cstddef>
 #include <cstdint>
@@ -48,10 +50,12 @@ class StandInSpheres {
                  const MassDistribution* mass, const EmbeddedPoints& reserve = {},
                  std::span<const TetIndex> reserve_cover = {});
 
-  /// Appends to `points`, and spends, the stand-in and reserve spheres of each tet of
-  /// `exposed`, then every reserve sphere whose tet `tet_fragment` puts in another
-  /// fragment than its cover tet. Returns how many it added.
-  std::size_t add_for(std::span<const TetFace> exposed, std::span<const Index> tet_fragment, EmbeddedPoints& points);
+  /// Appends to `points`, and spends, each tet of `exposed`'s stand-in and the reserve
+  /// spheres that come with its exposure, then every reserve sphere a split has parted
+  /// from its cover tet: fewer shared nodes in `tets` (the current ones) than at rest,
+  /// or another fragment in `tet_fragment`. Returns how many it added.
+  std::size_t add_for(std::span<const TetFace> exposed, const Matrix4Xu& tets, std::span<const Index> tet_fragment,
+                      EmbeddedPoints& points);
   /// Removes the points from index `count` on (those added by a step rolled back),
   /// putting their tets' reserves back.
   void truncate(EmbeddedPoints& points, std::size_t count);
@@ -70,7 +74,8 @@ class StandInSpheres {
     bool stand_in;
     std::size_t index;
   };
-  void hold_reserve(std::size_t tet_count, const EmbeddedPoints& reserve, std::span<const TetIndex> cover);
+  /// m_reserve…, and m_exposed by tet, from the rest connectivity `tets`.
+  void hold_reserve(const Matrix4Xu& tets, const EmbeddedPoints& reserve, std::span<const TetIndex> cover);
   /// Appends reserve sphere `reserve` unless it was given.
   void give(std::size_t reserve, EmbeddedPoints& points);
 
@@ -80,8 +85,9 @@ class StandInSpheres {
   EmbeddedPoints m_reserve;           ///< the bake's reserve spheres
   std::vector<TetIndex> m_reserve_cover;      ///< per reserve sphere: its cover tet, or kInvalidIndex
   std::vector<std::uint8_t> m_reserve_given;  ///< per reserve sphere: in the points now
-  std::vector<std::size_t> m_reserve_start;   ///< per tet and one more: its range in m_reserve_of_tet
-  std::vector<std::size_t> m_reserve_of_tet;  ///< reserve spheres by tet
+  std::vector<std::uint8_t> m_reserve_shared; ///< per reserve sphere: nodes its tet shares with its cover tet at rest
+  std::vector<std::size_t> m_exposed_start;   ///< per tet and one more: its range in m_exposed
+  std::vector<std::size_t> m_exposed;         ///< by tet, the reserve spheres that come with its exposure
   std::vector<Given> m_log;                   ///< what is in the points, in order
   std::vector<std::uint8_t> m_obstacles_only; ///< per point: a reserve sphere (up to the last one given)
 };
