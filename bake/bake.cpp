@@ -272,7 +272,7 @@ void collision_stage(formats::Bundle& bundle, const FaceRegions& regions, const 
                 std::to_string(s.collision.surface) + " on the surface, " + std::to_string(s.collision.culled) +
                 " surrounded ones culled, " + std::to_string(s.collision.near_surface) + " at the surface dropped; " + std::to_string(s.collision.tets_bare) +
                 " tets with solid but no sphere, given one by the player when fracture exposes them; " +
-                std::to_string(s.collision.reserve) + " reserve spheres for render vertices, given when fracture exposes their tets or parts them from the spheres that cover those vertices)",
+                std::to_string(s.collision.reserve) + " reserve spheres for render vertices, given when fracture parts their tets from the spheres that cover those vertices)",
             s.collision_s);
 }
 
