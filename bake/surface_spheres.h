@@ -72,8 +72,8 @@ struct ReserveSphere {
 /// vertex order) passes within `gap` of gets one: touching the surface at the vertex
 /// from inside along its normal (fit as the surface spheres, up to `radius`), halved
 /// until its surface passes within gap / 2 of the vertex. The player holds one back
-/// until fracture exposes its tet or parts it from its cover tet. A vertex no sphere
-/// fits stays bare.
+/// until a split parts its tet from its cover tet (stand_in_spheres.h). A vertex no
+/// sphere fits stays bare.
 std::vector<ReserveSphere> reserve_spheres(const formats::Bundle& b, const formats::Collision& c,
                                            const WindingNumberTree& winding, const SurfaceDistance& distance,
                                            double radius, double gap);

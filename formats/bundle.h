@@ -137,9 +137,9 @@ struct Collision {
   std::vector<double> sphere_radius;          ///< #S [m]; target / 2^k after k halvings
   /// Reserve spheres (#R, same layout, sorted by tet): each covers a render vertex that
   /// no sphere of the tet holding it reaches (bake/surface_spheres.h, reserve_spheres).
-  /// The player holds one back until fracture exposes its tet or parts it from
-  /// `reserve_cover_tet`, the tet of the sphere that covers the vertex meanwhile
-  /// (kInvalidIndex where none does). Empty in bundles baked before them.
+  /// The player holds one back until a split parts its tet from `reserve_cover_tet`,
+  /// the tet of the sphere that covers the vertex meanwhile (kInvalidIndex where none
+  /// does; player/sim/contacts/stand_in_spheres.h). Empty in bundles baked before them.
   std::vector<TetIndex> reserve_tet;
   std::vector<Vec4> reserve_barycentric;
   std::vector<double> reserve_radius;

@@ -34,8 +34,7 @@ struct BodyDescription {
   std::optional<MassDistribution> mass;  ///< solid fraction and centre of mass per tet
   EmbeddedPoints spheres;        ///< the bake's collision spheres (empty: see World)
   /// The bake's reserve spheres and each one's cover tet (kInvalidIndex: none), held
-  /// back until fracture exposes their tet or parts the two
-  /// (formats::Collision::reserve_tet).
+  /// back until a split parts the two (stand_in_spheres.h).
   EmbeddedPoints reserve_spheres;
   std::vector<TetIndex> reserve_cover;
   EmbeddedPoints vertices;       ///< every render vertex (radius 0), for the exact mode and penetration
