@@ -135,9 +135,8 @@ SurfaceSphere fit_reserve(const formats::Bundle& b, const WindingNumberTree& win
   return sphere;
 }
 
-/// Sphere indices by the grid cell their centre is in. A sphere whose surface passes
-/// within the gap (≤ r) of a point has its centre within 2r of it, so in the cell of
-/// the point or a neighbouring one when the cell is 2r.
+/// Sphere indices by the grid cell their centre is in: a point's own cell and its 26
+/// neighbours hold every centre within a cell of it.
 class SphereCells {
  public:
   explicit SphereCells(double cell) : m_cell(cell) {}
@@ -227,40 +226,45 @@ std::vector<ReserveSphere> reserve_spheres(const formats::Bundle& b, const forma
                                            double radius, double gap) {
   const std::vector<formats::VertexInstance> held = formats::vertex_instances(b);
   const std::vector<Vec3> normal = vertex_normals(b.render);
-  const auto centre = [&](TetIndex t, const Vec4& beta) {
+  // Every sphere so far (the bundle's, then the reserve made before), by grid cell: a
+  // sphere that passes within the gap of a point has its centre within 2r of it.
+  struct Placed {
+    Vec3 centre;
+    double radius;
+    TetIndex tet;
+    bool reserve;
+  };
+  std::vector<Placed> placed;
+  SphereCells cells(2.0 * radius);
+  const auto place = [&](TetIndex t, const Vec4& beta, double r, bool reserve) {
     Vec3 x = Vec3::Zero();
     for (int corner = 0; corner < 4; ++corner) x += beta[corner] * b.cage.rest_positions.col(b.cage.tets(corner, t));
-    return x;
+    cells.add(x, placed.size());
+    placed.push_back({x, r, t, reserve});
   };
-  // Each tet's spheres (the bundle's, then the reserve made so far), and every sphere of
-  // the bundle by grid cell, for the nearest one of any tet.
-  std::vector<std::vector<std::pair<Vec3, double>>> of_tet(b.cage.tet_count());
-  SphereCells cells(2.0 * radius);
-  for (std::size_t k = 0; k < c.sphere_tet.size(); ++k) {
-    const Vec3 x = centre(c.sphere_tet[k], c.sphere_barycentric[k]);
-    of_tet[c.sphere_tet[k]].emplace_back(x, c.sphere_radius[k]);
-    cells.add(x, k);
-  }
+  for (std::size_t k = 0; k < c.sphere_tet.size(); ++k) place(c.sphere_tet[k], c.sphere_barycentric[k], c.sphere_radius[k], false);
   std::vector<ReserveSphere> reserve;
   for (std::size_t v = 0; v < held.size(); ++v) {
     if (held[v].instance == formats::kNoInstance || !(normal[v].squaredNorm() > 0.0)) continue;
     const TetIndex t = b.embedding.instance_tet[held[v].instance];
     const Vec3 p = b.render.positions.col(static_cast<Eigen::Index>(v));
-    double own = std::numeric_limits<double>::infinity();  // from p to the surface of t's spheres
-    for (const auto& [x, r] : of_tet[t]) own = std::min(own, (x - p).norm() - r);
-    if (own <= gap) continue;
-    ReserveSphere s{fit_reserve(b, winding, distance, p, normal[v].normalized(), t, radius, 0.5 * gap)};
-    if (!(s.sphere.radius > 0.0)) continue;
-    double nearest = gap;
+    // From p to the surface of the nearest sphere of t, and of the nearest of the
+    // bundle's (any tet), within the gap.
+    double own = std::numeric_limits<double>::infinity(), nearest = gap;
+    TetIndex cover = kInvalidIndex;
     cells.for_each_near(p, [&](std::size_t k) {
-      const double d = (centre(c.sphere_tet[k], c.sphere_barycentric[k]) - p).norm() - c.sphere_radius[k];
-      if (d <= nearest) {
+      const double d = (placed[k].centre - p).norm() - placed[k].radius;
+      if (placed[k].tet == t) own = std::min(own, d);
+      if (!placed[k].reserve && d <= nearest) {
         nearest = d;
-        s.cover_tet = c.sphere_tet[k];
+        cover = placed[k].tet;
       }
     });
-    of_tet[t].emplace_back(centre(t, s.sphere.barycentric), s.sphere.radius);
-    reserve.push_back(s);
+    if (own <= gap) continue;
+    const SurfaceSphere s = fit_reserve(b, winding, distance, p, normal[v].normalized(), t, radius, 0.5 * gap);
+    if (!(s.radius > 0.0)) continue;
+    place(t, s.barycentric, s.radius, true);
+    reserve.push_back({s, cover});
   }
   return reserve;
 }
