@@ -385,6 +385,20 @@ Walls read_walls(const Reader& reader, const Bundle& b) {
   return w;
 }
 
+/// A set of spheres: `prefix`_tet (each a tet of `tet_count`), `prefix`_barycentric and
+/// `prefix`_radius, as many.
+void read_spheres(const Reader& reader, hid_t group, const std::string& where, const std::string& prefix,
+                  std::size_t tet_count, std::vector<TetIndex>& tet, std::vector<Vec4>& barycentric,
+                  std::vector<double>& radius) {
+  tet = reader.read_vector<TetIndex>(group, where, prefix + "_tet", ElementType::U32);
+  const hsize_t count = tet.size();
+  reader.check_range(tet.data(), count, 1, tet_count, where + "/" + prefix + "_tet", false);
+  reader.expect_shape(group, where, prefix + "_barycentric", {4}, count);
+  barycentric.resize(count);
+  h5::read_dataset(group, prefix + "_barycentric", ElementType::F64, barycentric.data());
+  radius = reader.read_vector<double>(group, where, prefix + "_radius", ElementType::F64, count);
+}
+
 Collision read_collision(const Reader& reader, const Bundle& b) {
   const h5::Handle g = reader.group("collision");
   const std::string where = "/collision";
@@ -392,21 +406,11 @@ Collision read_collision(const Reader& reader, const Bundle& b) {
   c.target_radius = h5::read_double_attribute(g.id(), "target_radius").value_or(0.0);
   c.sampled_tets = static_cast<std::uint64_t>(std::max<std::int64_t>(0, h5::read_integer_attribute(g.id(), "sampled_tets").value_or(0)));
 
-  c.sphere_tet = reader.read_vector<TetIndex>(g.id(), where, "sphere_tet", ElementType::U32);
-  const hsize_t spheres = c.sphere_tet.size();
-  reader.check_range(c.sphere_tet.data(), spheres, 1, b.cage.tet_count(), where + "/sphere_tet", false);
-  reader.expect_shape(g.id(), where, "sphere_barycentric", {4}, spheres);
-  c.sphere_barycentric.resize(spheres);
-  h5::read_dataset(g.id(), "sphere_barycentric", ElementType::F64, c.sphere_barycentric.data());
-  c.sphere_radius = reader.read_vector<double>(g.id(), where, "sphere_radius", ElementType::F64, spheres);
+  read_spheres(reader, g.id(), where, "sphere", b.cage.tet_count(), c.sphere_tet, c.sphere_barycentric, c.sphere_radius);
   if (h5::has_link(g.id(), "reserve_tet")) {  // bundles from sphere_version 3 on
-    c.reserve_tet = reader.read_vector<TetIndex>(g.id(), where, "reserve_tet", ElementType::U32);
+    read_spheres(reader, g.id(), where, "reserve", b.cage.tet_count(), c.reserve_tet, c.reserve_barycentric,
+                 c.reserve_radius);
     const hsize_t reserves = c.reserve_tet.size();
-    reader.check_range(c.reserve_tet.data(), reserves, 1, b.cage.tet_count(), where + "/reserve_tet", false);
-    reader.expect_shape(g.id(), where, "reserve_barycentric", {4}, reserves);
-    c.reserve_barycentric.resize(reserves);
-    h5::read_dataset(g.id(), "reserve_barycentric", ElementType::F64, c.reserve_barycentric.data());
-    c.reserve_radius = reader.read_vector<double>(g.id(), where, "reserve_radius", ElementType::F64, reserves);
     c.reserve_cover_tet = reader.read_vector<TetIndex>(g.id(), where, "reserve_cover_tet", ElementType::U32, reserves);
     reader.check_range(c.reserve_cover_tet.data(), reserves, 1, b.cage.tet_count(), where + "/reserve_cover_tet", true);
   }
