@@ -1,11 +1,11 @@
 #include "player/sim/block_system.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 
 #include "common/assert.h"
+#include "player/sim/lanes.h"
 
 namespace fissure::sim {
 
@@ -148,7 +148,7 @@ Mat3 BlockSystem::diagonal_block(NodeIndex node, const CorotatedElasticity& elas
 void BlockSystem::assemble(const CorotatedElasticity& elasticity, const ElementBuffers& elements,
                            const Eigen::VectorXd& mass, double k_scale, double m_scale) {
   double* values = m_matrix.valuePtr();
-  tbb::parallel_for(tbb::blocked_range<Index>(0, free_count(), 64), [&](const tbb::blocked_range<Index>& range) {
+  parallel_for_range<Index>(free_count(), 64, [&](const tbb::blocked_range<Index>& range) {
     for (Index c = range.begin(); c != range.end(); ++c) {
       const NodeIndex n = m_free_nodes[c];
       // This node's block column: every block is one task's, so no two threads write
@@ -184,7 +184,7 @@ void BlockSystem::product(const CorotatedElasticity& elasticity, const ElementBu
     elasticity.stiffness_times(static_cast<TetIndex>(first), size, elements, u, &m_tet_product[first]);
   });
   y.resize(x.size());
-  tbb::parallel_for(tbb::blocked_range<Index>(0, free_count(), 256), [&](const tbb::blocked_range<Index>& range) {
+  parallel_for_range<Index>(free_count(), 256, [&](const tbb::blocked_range<Index>& range) {
     for (Index c = range.begin(); c != range.end(); ++c) {
       y.segment<3>(3 * c) = m_scale * mass[m_free_nodes[c]] * x.segment<3>(3 * c) - k_scale * gather(c, m_tet_product);
     }

@@ -3,7 +3,8 @@
 #include <algorithm>
 
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
+
+#include "player/sim/lanes.h"
 
 namespace fissure::sim {
 
@@ -13,7 +14,7 @@ void symmetric_product(const Eigen::SparseMatrix<double>& A, const Eigen::Vector
   const int* inner = A.innerIndexPtr();
   const double* values = A.valuePtr();
   // Rows of a few hundred: enough work per task to pay for the scheduling.
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, A.cols(), 512), [&](const tbb::blocked_range<Eigen::Index>& r) {
+  parallel_for_range<Eigen::Index>(A.cols(), 512, [&](const tbb::blocked_range<Eigen::Index>& r) {
     for (Eigen::Index j = r.begin(); j != r.end(); ++j) {
       double sum = 0.0;
       for (int k = outer[j]; k < outer[j + 1]; ++k) sum += values[k] * x[inner[k]];

@@ -348,7 +348,7 @@ double CorotatedElasticity::tet_energy(const Matrix3Xd& x, TetIndex t) const {
 
 void CorotatedElasticity::deformation_gradients(const Matrix3Xd& x, std::vector<Mat3>& out) const {
   out.resize(tet_count());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tet_count(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+  parallel_for_range<std::size_t>(tet_count(), 1024, [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t t = r.begin(); t != r.end(); ++t) out[t] = deformation_gradient(x, static_cast<TetIndex>(t));
   });
 }

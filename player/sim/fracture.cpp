@@ -5,11 +5,11 @@
 #include <array>
 #include <numeric>
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "common/assert.h"
 #include "common/tet_mesh.h"
 #include "common/union_find.h"
+#include "player/sim/lanes.h"
 
 namespace fissure::sim {
 
@@ -183,7 +183,7 @@ void separation_field(const ImplicitIntegrator& body, SeparationField& out, doub
   };
   // Per tet: the tensile and compressive nodal forces (parallel, one slot per tet).
   std::vector<Mat34> tensile(tet_count), compressive(tet_count);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tet_count, 512), [&](const auto& range) {
+  parallel_for_range<std::size_t>(tet_count, 512, [&](const auto& range) {
     for (std::size_t t = range.begin(); t != range.end(); ++t) {
       if (!tet_needed(t)) continue;
       Eigen::SelfAdjointEigenSolver<Mat3> eigen;

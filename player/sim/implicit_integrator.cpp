@@ -1,7 +1,6 @@
 #include "player/sim/implicit_integrator.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
@@ -10,6 +9,7 @@
 #include "common/assert.h"
 #include "common/error.h"
 #include "player/sim/conjugate_gradient.h"
+#include "player/sim/lanes.h"
 #include "player/sim/rigid_rotation.h"
 
 namespace fissure::sim {
@@ -326,7 +326,7 @@ Eigen::VectorXd ImplicitIntegrator::right_hand_side(const StepSettings& s) {
     for (int l = 0; l < size; ++l) m_tet_rhs[first + l] = m_elements.forces[first + l] + (beta + h) * kv[l];
   });
   Eigen::VectorXd b(m_system.rows());
-  tbb::parallel_for(tbb::blocked_range<Index>(0, m_system.free_count(), 64), [&](const tbb::blocked_range<Index>& range) {
+  parallel_for_range<Index>(m_system.free_count(), 64, [&](const tbb::blocked_range<Index>& range) {
     for (Index c = range.begin(); c != range.end(); ++c) {
       const NodeIndex n = m_system.free_node(c);
       Vec3 sum = h * m_mass[n] * (s.gravity - alpha * m_velocities.col(n));

@@ -1,12 +1,12 @@
 // ImplicitIntegrator::solve_exactly (declared in implicit_integrator.h): backward Euler
 // solved to convergence by Newton iterations on the step's incremental potential.
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <cmath>
 
 #include "common/assert.h"
 #include "player/sim/implicit_integrator.h"
+#include "player/sim/lanes.h"
 
 namespace fissure::sim {
 
@@ -144,7 +144,7 @@ Eigen::VectorXd ImplicitIntegrator::incremental_residual(const StepSettings& s, 
   start_stiffness_times(v);
   for (std::size_t t = 0; t < m_tet_rhs.size(); ++t) m_tet_rhs[t] = m_elements.forces[t] + beta * m_tet_rhs[t];
   Eigen::VectorXd b(m_system.rows());
-  tbb::parallel_for(tbb::blocked_range<Index>(0, m_system.free_count(), 64), [&](const tbb::blocked_range<Index>& range) {
+  parallel_for_range<Index>(m_system.free_count(), 64, [&](const tbb::blocked_range<Index>& range) {
     for (Index c = range.begin(); c != range.end(); ++c) {
       const NodeIndex n = m_system.free_node(c);
       const Vec3 vn = v.segment<3>(3 * c);
@@ -172,6 +172,7 @@ void ImplicitIntegrator::start_stiffness_times(const Eigen::VectorXd& v) {
     for (int l = 0; l < size; ++l) {
       for (int j = 0; j < 4; ++j) u[l].col(j) = m_velocities.col(tets(j, first + l));
     }
+    for (int l = size; l < kLanes; ++l) u[l].setZero();  // never read; for the compiler's uninitialized check
     m_elasticity.stiffness_times(static_cast<TetIndex>(first), size, m_start_elements, u, ku);
     for (int l = 0; l < size; ++l) m_tet_rhs[first + l] = ku[l];
   });

@@ -1,7 +1,8 @@
 #include "player/sim/lagged_cholesky.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
+
+#include "player/sim/lanes.h"
 
 namespace fissure::sim {
 
@@ -30,7 +31,7 @@ void LaggedCholesky::follow_rotations(const std::vector<Mat3>& rotations, const 
   // Each tet's rotation change once (a node has ~16 tets), then per node their sum.
   const std::size_t tet_count = rotations.size();
   m_tet_rotation_change.resize(tet_count);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tet_count, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+  parallel_for_range<std::size_t>(tet_count, 1024, [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t t = r.begin(); t != r.end(); ++t) {
       m_tet_rotation_change[t].noalias() = rotations[t] * m_factored_rotations[t].transpose();
     }
