@@ -96,8 +96,11 @@ void read_solver(const Table& t, SceneSolverSettings& s) {
                  "an integer in 1 … " + std::to_string(kMaxContactIterations));
   t.read_integer("contact_sweeps", s.contact_sweeps, 0, kMaxContactSweeps,
                  "an integer in 0 … " + std::to_string(kMaxContactSweeps) + " (0 = always the augmented Lagrangian)");
-  t.read_number("rigid_resting_speed", s.rigid_resting_speed, [](double v) { return v >= 0 && v <= 10; },
-                "0 <= rigid_resting_speed <= 10 [m/s]; 0 means every fragment stays deformable");
+  double resting_speed = 0;
+  if (t.read_number("rigid_resting_speed", resting_speed, [](double v) { return v >= 0 && v <= 10; },
+                    "0 <= rigid_resting_speed <= 10 [m/s]; 0 means every fragment stays deformable")) {
+    s.rigid_resting_speed = resting_speed;
+  }
   t.read_number("sleep_speed", s.sleep_speed, [](double v) { return v >= 0 && v <= 1; },
                 "0 <= sleep_speed <= 1 [m/s]; 0 means nothing sleeps");
   t.read_number("sleep_time", s.sleep_time, [](double v) { return v > 0 && v <= 1e6; }, "0 < sleep_time [s]");

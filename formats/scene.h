@@ -170,8 +170,8 @@ struct SceneSolverSettings {
   /// velocity change, or twice one step of gravity where that is more, its motion rigid
   /// to within it) has its contacts answered as a rigid body's, 0 … 10 [m/s]
   /// (sim::ContactSettings::rigid_resting_speed); 0 = never, every fragment deformable
-  /// in every response (the thesis's model).
-  double rigid_resting_speed = 0.5;
+  /// in every response (the thesis's model). Unset: rigid_resting_speed(Scene).
+  std::optional<double> rigid_resting_speed;
   /// A fragment of fewer tets than this moves as a rigid body, its strain frozen at what
   /// it was when it broke free (sim::ContactSettings::rigid_fragments_below); 0 = none,
   /// every fragment deformable (the thesis's model). Integer 0 … 1e6.
@@ -214,6 +214,20 @@ struct Scene {
   std::vector<SceneProjectile> projectiles;
   std::optional<SceneCamera> camera;
 };
+
+/// Where a fragment can break, contacts asking up to 0.5 m/s of it are answered rigidly
+/// (docs/decisions/0073-rigid-answers-at-rest.md)...
+inline constexpr double kRestingSpeedBreakable = 0.5;
+/// ... and up to 1 m/s where nothing can (features.fracture off): what a faster limit
+/// would lose is breaks, which such a scene has none of
+/// (docs/decisions/0078-unbreakable-scenes-rest-rigidly-up-to-1-m-s.md).
+inline constexpr double kRestingSpeedUnbreakable = 1.0;
+
+/// The scene's solver.rigid_resting_speed, or its default for whether it can break.
+[[nodiscard]] inline double rigid_resting_speed(const Scene& scene) {
+  return scene.solver.rigid_resting_speed.value_or(scene.features.fracture ? kRestingSpeedBreakable
+                                                                           : kRestingSpeedUnbreakable);
+}
 
 /// Reads and validates a scene file. Throws fissure::Error.
 Scene read_scene(const std::filesystem::path& file);

@@ -25,7 +25,9 @@ DEFAULT_STEPS_PER_S = 240     # the player's dt, 1/240 s
 DEFAULT_TOLERANCE = 1e-4      # solver.tolerance, CG with the lagged Cholesky preconditioner
 DEFAULT_CONTACT_SWEEPS = 16   # solver.contact_sweeps (ContactSettings::sequential_impulse_sweeps)
 ENERGY_BOUND = 1.01           # energy never above what was put in, +1 % (the energy grid's bound)
-DEFAULT_RIGID_SPEED = 0.5     # solver.rigid_resting_speed [m/s] (ContactSettings::rigid_resting_speed)
+# solver.rigid_resting_speed [m/s] by scene: 0.5 where it can break, 1 where it cannot
+# (formats::rigid_resting_speed, records 0073 and 0078)
+DEFAULT_RIGID_SPEED = {"as shipped": 0.5, "fracture off": 1.0}
 
 
 def read(folder: Path, name: str) -> list:
@@ -107,10 +109,11 @@ def ticks_at(ax, values, text) -> None:
     ax.minorticks_off()
 
 
-def mark_default(ax, x: float, label: str = "default") -> None:
+def mark_default(ax, x: float, label: str = "default", line: int = 0) -> None:
+    """A dotted line at x, labelled at the top (`line` labels further down, for a second default)."""
     ax.axvline(x, color=DEFAULTS, linestyle=":", linewidth=1)
-    ax.annotate(label, (x, 1), xycoords=("data", "axes fraction"), xytext=(3, -12), textcoords="offset points",
-                color=DEFAULTS, fontsize=8)
+    ax.annotate(label, (x, 1), xycoords=("data", "axes fraction"), xytext=(3, -12 - 10 * line),
+                textcoords="offset points", color=DEFAULTS, fontsize=8)
 
 
 def walls(folder: Path):
@@ -416,8 +419,8 @@ def rigid(folder: Path):
         pieces.plot(speed, column(mine, "fragments"), f"{marker}-", label=scene)
         tradeoff.plot(step, vertex, marker, label=scene)
         label_points(tradeoff, step, vertex, [speed_label(v) for v in speed])
-        if DEFAULT_RIGID_SPEED in speed:
-            i = speed.index(DEFAULT_RIGID_SPEED)
+        if DEFAULT_RIGID_SPEED.get(scene) in speed:
+            i = speed.index(DEFAULT_RIGID_SPEED[scene])
             mark_default_point(tradeoff, step[i], vertex[i], label="default" if marker == "o" else "")
     cost.set(xlabel="solver.rigid_resting_speed [m/s]", ylabel="ms per step (mean)", title="cost")
     depth.set(xlabel="solver.rigid_resting_speed [m/s]", ylabel="mm", title="deepest render vertex in an obstacle")
@@ -426,7 +429,8 @@ def rigid(folder: Path):
     for ax in (cost, depth, pieces):
         ax.set_xscale("symlog", linthresh=0.05)
         ticks_at(ax, column(rows, "rigid_resting_speed"), speed_label)
-        mark_default(ax, DEFAULT_RIGID_SPEED)
+        for line, (scene, default) in enumerate(DEFAULT_RIGID_SPEED.items()):
+            mark_default(ax, default, label=f"default, {scene}", line=line)
         ax.set_ylim(bottom=0)
         ax.legend(fontsize=7)
     tradeoff.set(xlabel="ms per step (mean)", ylabel="deepest render vertex, mm", title="accuracy against cost")

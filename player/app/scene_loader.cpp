@@ -227,7 +227,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
   settings.rigid_when_gaining_below = scene.solver.rigid_when_gaining_below;
   settings.contacts.iterations = scene.solver.contact_iterations;
   settings.contacts.sequential_impulse_sweeps = scene.solver.contact_sweeps;
-  settings.contacts.rigid_resting_speed = scene.solver.rigid_resting_speed;
+  settings.contacts.rigid_resting_speed = formats::rigid_resting_speed(scene);
   settings.contacts.rigid_fragments_below = scene.solver.rigid_fragments_below;
   settings.sleep = {scene.solver.sleep_speed, scene.solver.sleep_time};
   settings.min_dt = scene.solver.min_dt;

@@ -270,7 +270,8 @@ TEST(SceneReader, DefaultsApply) {
   EXPECT_EQ(scene.solver.stiffness, SceneStiffness::Warped);
   EXPECT_EQ(scene.solver.contact_iterations, 8);
   EXPECT_EQ(scene.solver.contact_sweeps, 16);
-  EXPECT_EQ(scene.solver.rigid_resting_speed, 0.5);
+  EXPECT_FALSE(scene.solver.rigid_resting_speed.has_value());
+  EXPECT_EQ(rigid_resting_speed(scene), kRestingSpeedUnbreakable);  // nothing breaks without fracture
   EXPECT_EQ(scene.solver.rigid_fragments_below, 0);
   EXPECT_EQ(scene.solver.rigid_when_gaining_below, 8);
   EXPECT_EQ(scene.solver.threads, 0);
@@ -322,6 +323,17 @@ TEST(SceneReader, DefaultsApply) {
   EXPECT_EQ(thrown.projectiles[0].restitution, 0.5);
   EXPECT_EQ(thrown.projectiles[0].friction, 0.3);
   EXPECT_EQ(thrown.projectiles[0].line, 3);
+}
+
+// A fracture scene keeps 0.5 m/s, for what a faster limit would not let break; an
+// unbreakable one rests rigidly up to 1 m/s; a value the scene gives is kept either way.
+TEST(SceneReader, RestingSpeedDefaultsByWhetherTheSceneCanBreak) {
+  EXPECT_EQ(rigid_resting_speed(parse(with_object("[features]\nfracture = true\n"))), kRestingSpeedBreakable);
+  EXPECT_EQ(rigid_resting_speed(parse(with_object("[features]\nfracture = false\n"))), kRestingSpeedUnbreakable);
+  EXPECT_EQ(rigid_resting_speed(parse(with_object("[solver]\nrigid_resting_speed = 0.3\n"))), 0.3);
+  EXPECT_EQ(rigid_resting_speed(parse(with_object("[solver]\nrigid_resting_speed = 0\n[features]\nfracture = true\n"))),
+            0.0);
+  EXPECT_LT(kRestingSpeedBreakable, kRestingSpeedUnbreakable);
 }
 
 TEST(SceneReader, AcceptsIntegersForRealsAndInfiniteToughness) {
