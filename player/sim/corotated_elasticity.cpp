@@ -310,16 +310,35 @@ Mat3 CorotatedElasticity::deformation_gradient(const Matrix3Xd& x, TetIndex t) c
   return F;
 }
 
+bool CorotatedElasticity::knows_gradients_at(const Matrix3Xd& x) const {
+  const LastEnergy& last = m_last_energy;
+  const auto bytes = static_cast<std::size_t>(x.size()) * sizeof(double);
+  return last.known && last.positions.cols() == x.cols() && std::memcmp(last.positions.data(), x.data(), bytes) == 0;
+}
+
 double CorotatedElasticity::energy(const Matrix3Xd& x) const {
   LastEnergy& last = m_last_energy;
-  const auto bytes = static_cast<std::size_t>(x.size()) * sizeof(double);
-  if (last.known && last.positions.cols() == x.cols() && std::memcmp(last.positions.data(), x.data(), bytes) == 0) {
-    return last.value;
-  }
+  if (knows_gradients_at(x)) return last.value;
   last.value = summed_energy(x);
   last.positions = x;
   last.known = true;
   return last.value;
+}
+
+void CorotatedElasticity::gather_lanes(const Matrix3Xd& x, std::size_t first, int size, bool positions,
+                                       double (&x_lanes)[12][kLanes], double (&g_lanes)[12][kLanes],
+                                       double (&volume)[kLanes]) const {
+  for (int l = 0; l < kLanes; ++l) {
+    const auto t = static_cast<TetIndex>(first + (l < size ? l : 0));
+    const Mat34& g = m_gradients[t];
+    for (int i = 0; i < 4; ++i) {
+      for (int a = 0; a < 3; ++a) g_lanes[3 * i + a][l] = g(a, i);
+      if (!positions) continue;
+      const auto node = x.col(m_tets(i, t));
+      for (int a = 0; a < 3; ++a) x_lanes[3 * i + a][l] = node[a];
+    }
+    volume[l] = m_volume[t];
+  }
 }
 
 double CorotatedElasticity::summed_energy(const Matrix3Xd& x) const {
@@ -329,12 +348,21 @@ double CorotatedElasticity::summed_energy(const Matrix3Xd& x) const {
   // the trajectory.
   const std::size_t count = tet_count();
   std::vector<double> batch_energy((count + kLanes - 1) / kLanes, 0.0);
+  std::vector<Mat3>& F = m_last_energy.F;
+  std::vector<Mat3>& Q = m_last_energy.Q;
+  F.resize(count);
+  Q.resize(count);
   parallel_for_batches<std::size_t>(count, 1024, [&](std::size_t first, int size) {
-    Mat3 F[kLanes], Q[kLanes];
-    for (int l = 0; l < size; ++l) F[l] = deformation_gradient(x, static_cast<TetIndex>(first + l));
-    polar_rotations(F, Q, size);
+    // The element loop's own kernel (evaluate()), so that F here is the bits it computes.
+    double x_lanes[12][kLanes], g_lanes[12][kLanes], volume[kLanes], F_lanes[9][kLanes];
+    gather_lanes(x, first, size, true, x_lanes, g_lanes, volume);
+    deformation_gradient_lanes(x_lanes, g_lanes, F_lanes);
+    for (int l = 0; l < size; ++l) {
+      for (int k = 0; k < 9; ++k) F[first + l].data()[k] = F_lanes[k][l];
+    }
+    polar_rotations(&F[first], &Q[first], size);
     double sum = 0.0;
-    for (int l = 0; l < size; ++l) sum += energy_at(static_cast<TetIndex>(first + l), F[l], Q[l]);
+    for (int l = 0; l < size; ++l) sum += energy_at(static_cast<TetIndex>(first + l), F[first + l], Q[first + l]);
     batch_energy[first / kLanes] = sum;
   });
   return std::accumulate(batch_energy.begin(), batch_energy.end(), 0.0);
@@ -511,23 +539,24 @@ void CorotatedElasticity::evaluate(const Matrix3Xd& x, StiffnessModel model, boo
   out.stress.resize(with_stress ? count : 0);
   // In batches of kLanes consecutive tets (by index, whatever the threads): the
   // deformation gradients, polar rotations, stresses and forces run a batch per SIMD
-  // register (deformation_gradient_lanes, polar_newton_lanes, element_lanes).
+  // register (deformation_gradient_lanes, polar_newton_lanes, element_lanes). Where the
+  // last energy() was at these positions, its F and Q are these bits already.
+  const bool known = model == StiffnessModel::Warped && knows_gradients_at(x);
   parallel_for_batches<std::size_t>(count, 256, [&](std::size_t first, int size) {
     constexpr int L = kLanes;
     double x_lanes[12][L], g_lanes[12][L], volume[L], F_lanes[9][L], q[9][L];
-    for (int l = 0; l < L; ++l) {
-      const auto t = static_cast<TetIndex>(first + (l < size ? l : 0));  // a short batch repeats its first tet
-      const Mat34& g = m_gradients[t];
-      for (int i = 0; i < 4; ++i) {
-        const auto node = x.col(m_tets(i, t));
-        for (int a = 0; a < 3; ++a) {
-          x_lanes[3 * i + a][l] = node[a];
-          g_lanes[3 * i + a][l] = g(a, i);
+    gather_lanes(x, first, size, !known, x_lanes, g_lanes, volume);
+    if (known) {
+      for (int l = 0; l < L; ++l) {
+        const std::size_t t = first + (l < size ? l : 0);
+        for (int k = 0; k < 9; ++k) {
+          F_lanes[k][l] = m_last_energy.F[t].data()[k];
+          q[k][l] = m_last_energy.Q[t].data()[k];
         }
       }
-      volume[l] = m_volume[t];
+    } else {
+      deformation_gradient_lanes(x_lanes, g_lanes, F_lanes);
     }
-    deformation_gradient_lanes(x_lanes, g_lanes, F_lanes);
     const auto lane_matrix = [](const double (&lanes)[9][L], int l) {
       Mat3 m;
       for (int k = 0; k < 9; ++k) m.data()[k] = lanes[k][l];
@@ -544,7 +573,7 @@ void CorotatedElasticity::evaluate(const Matrix3Xd& x, StiffnessModel model, boo
       for (int l = size; l < L; ++l) {
         for (int k = 0; k < 9; ++k) q[k][l] = q[k][0];
       }
-    } else {
+    } else if (!known) {
       bool converged[L];
       std::copy(&F_lanes[0][0], &F_lanes[0][0] + 9 * L, &q[0][0]);
       polar_newton_lanes(q, converged);

@@ -143,16 +143,27 @@ class CorotatedElasticity {
   std::vector<double> m_volume;
   double m_mu, m_lambda;
   /// energy()'s last answer and the positions it is for (a polar decomposition per tet
-  /// saved when asked again; World::measure_substep_start).
+  /// saved when asked again; World::measure_substep_start), with each tet's F and Q
+  /// there. The energy guard measures a substep's end, and the next substep's
+  /// evaluate() starts from the same positions: it takes F and Q from here, the same
+  /// bits it would compute (the same sums and the same lane batches).
   struct LastEnergy {
     Matrix3Xd positions;
     double value = 0;
     bool known = false;
+    std::vector<Mat3> F, Q;
   };
   mutable LastEnergy m_last_energy;
 
   [[nodiscard]] Mat3 deformation_gradient(const Matrix3Xd& x, TetIndex t) const;
-  [[nodiscard]] double summed_energy(const Matrix3Xd& x) const;  ///< energy() without the last answer
+  /// energy() without the last answer; keeps each tet's F and Q in m_last_energy.
+  [[nodiscard]] double summed_energy(const Matrix3Xd& x) const;
+  /// Whether m_last_energy holds F and Q at exactly these positions.
+  [[nodiscard]] bool knows_gradients_at(const Matrix3Xd& x) const;
+  /// Tet first + l's rest gradients, volume and (with `positions`) node positions in lane
+  /// l, for l < kLanes; a short batch (size < kLanes) repeats its first tet.
+  void gather_lanes(const Matrix3Xd& x, std::size_t first, int size, bool positions, double (&x_lanes)[12][kLanes],
+                    double (&g_lanes)[12][kLanes], double (&volume)[kLanes]) const;
   [[nodiscard]] Mat12 exact_stiffness(TetIndex t, const Mat3& F, const SignedSvd& svd, bool project) const;
   [[nodiscard]] Mat3 stress(const Mat3& rotation, const Mat3& F) const;
   /// Tet t's energy at deformation gradient F, with Q its polar rotation.
