@@ -1,13 +1,17 @@
 #include "player/sim/implicit_integrator.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <initializer_list>
 #include <random>
+#include <vector>
 
+#include "player/sim/lanes.h"
 #include "tests/support/procedural.h"
 
 namespace fissure::sim {
@@ -298,6 +302,46 @@ TEST(ImplicitIntegrator, DeterministicStateHashAfterManySteps) {
   for (const LinearSolver solver : {LinearSolver::Direct, LinearSolver::ConjugateGradient}) {
     EXPECT_EQ(hash_after_steps(solver), hash_after_steps(solver));
   }
+}
+
+/// A body large enough that its element and node loops split over the threads: small
+/// bodies' loops run on the calling thread whatever the thread count (lanes.h), so the
+/// world's thread-count test no longer reaches the split paths.
+std::uint64_t large_body_hash(int threads) {
+  const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+  const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(2.4, 0.6, 0.6), 12, 6, 6);
+  ImplicitIntegrator body(cage.rest_positions, cage.tets, Material{.youngs_modulus = 1e6, .rayleigh_mass = 0.1});
+  pin_at_x0(cage, {&body});
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(body.step(StepSettings{}), SolveStatus::Converged);
+  (void)body.elasticity().energy(body.positions());  // the energy pass, and its F and Q kept for the next step
+  EXPECT_EQ(body.step(StepSettings{}), SolveStatus::Converged);
+  return state_hash(body);
+}
+
+TEST(ImplicitIntegrator, ALargeBodyStepsTheSameBitsOnOneThreadAndOnTwo) {
+  // 2,592 tets and 637 nodes: the per-tet product (grain 512) and evaluation (256) and
+  // the per-node gathers (64) make at least kFewestTasks tasks each.
+  static_assert(kFewestTasks == 4, "the mesh below is sized for four grains of 512 tets");
+  const std::uint64_t one = large_body_hash(1);
+  EXPECT_EQ(large_body_hash(2), one);
+  EXPECT_EQ(large_body_hash(4), one);
+}
+
+TEST(ParallelForRange, AShortLoopIsOneRangeAndALongOneCoversEveryItemOnce) {
+  const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+  std::atomic<int> calls{0};
+  parallel_for_range<int>(4 * 100 - 1, 100, [&](const tbb::blocked_range<int>& range) {
+    ++calls;
+    EXPECT_EQ(range.begin(), 0);
+    EXPECT_EQ(range.end(), 399);
+  });
+  EXPECT_EQ(calls.load(), 1);
+  std::vector<std::atomic<int>> seen(4000);
+  parallel_for_range<int>(4000, 100, [&](const tbb::blocked_range<int>& range) {
+    for (int i = range.begin(); i != range.end(); ++i) ++seen[static_cast<std::size_t>(i)];
+  });
+  for (const std::atomic<int>& s : seen) EXPECT_EQ(s.load(), 1);
+  parallel_for_range<int>(0, 100, [&](const tbb::blocked_range<int>& range) { EXPECT_TRUE(range.empty()); });
 }
 
 }  // namespace
