@@ -16,10 +16,9 @@ player=$(realpath "${1:-build/release/player/app/fissure-player}")
 speeds=${2:-0.5 1 2}
 [[ -f out/bunny-5k.h5 ]] || { echo "error: out/bunny-5k.h5 is missing" >&2; echo "hint: run scripts/bake-sample.sh first" >&2; exit 1; }
 command -v h5dump > /dev/null || { echo "error: h5dump is missing" >&2; echo "hint: apt-get install -y hdf5-tools" >&2; exit 1; }
-# Debian's numpy is for the system's python3, which another python3 on the PATH may hide.
-python=python3
-"$python" -c "import numpy" 2>/dev/null || python=/usr/bin/python3
-"$python" -c "import numpy" 2>/dev/null || { echo "error: python3 has no numpy" >&2; echo "hint: apt-get install -y python3-numpy" >&2; exit 1; }
+# shellcheck source=scripts/system-python.sh
+source scripts/system-python.sh
+python=$(python_with numpy python3-numpy) || exit 1
 export OPENBLAS_CORETYPE=${OPENBLAS_CORETYPE:-Prescott}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

@@ -15,10 +15,9 @@ cd "$(dirname "$0")/.."
 player=$(realpath "${1:-build/release/player/app/fissure-player}")
 speeds=${2:-0.2 0.5 1}
 [[ -f out/bunny-5k.h5 ]] || { echo "error: out/bunny-5k.h5 is missing" >&2; echo "hint: run scripts/bake-sample.sh first" >&2; exit 1; }
-# Debian's python3-h5py is for the system's python3, which another python3 on the PATH may hide.
-python=python3
-"$python" -c "import h5py" 2>/dev/null || python=/usr/bin/python3
-"$python" -c "import h5py" 2>/dev/null || { echo "error: python3 has no h5py" >&2; echo "hint: apt-get install -y python3-h5py" >&2; exit 1; }
+# shellcheck source=scripts/system-python.sh
+source scripts/system-python.sh
+python=$(python_with h5py python3-h5py) || exit 1
 export OPENBLAS_CORETYPE=${OPENBLAS_CORETYPE:-Prescott}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
