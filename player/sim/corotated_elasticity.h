@@ -24,6 +24,7 @@
 #include "common/types.h"
 #include "player/sim/lanes.h"
 #include "player/sim/material.h"
+#include "player/sim/polar_rotation.h"
 
 namespace fissure::sim {
 
@@ -31,27 +32,6 @@ using Mat12 = Eigen::Matrix<double, 12, 12>;
 using Mat34 = Eigen::Matrix<double, 3, 4>;
 
 enum class StiffnessModel { Warped, Exact };
-
-/// F = U diag(σ) Vᵀ with U, V proper rotations; σ₂ carries the sign when F is inverted.
-struct SignedSvd {
-  Mat3 U, V;
-  Vec3 sigma;
-};
-SignedSvd signed_svd(const Mat3& F);
-
-/// The rotation of F's polar decomposition, proper (det = +1) even when F is inverted
-/// or degenerate. Well-conditioned F with det F > 0 (nearly every tet, nearly every
-/// step) takes Higham's scaled Newton iteration, a few 3×3 inverses; inverted, flat or
-/// collapsed tets take signed_svd. Both give the same rotation where both apply.
-Mat3 polar_rotation(const Mat3& F);
-
-/// Q[i] = polar_rotation(F[i]) for up to kLanes matrices at once: the Newton
-/// iterations of the batch run in lockstep, one SIMD lane per matrix, until every lane
-/// has converged (a lane that converged first takes extra steps at its fixed point, so
-/// the results match polar_rotation's to rounding, not bit for bit). Lanes Newton does
-/// not apply to take polar_rotation's SVD path. Which matrices share a batch must not
-/// depend on the thread count, for determinism: batch by absolute index (lanes.h).
-void polar_rotations(const Mat3* F, Mat3* Q, int count);
 
 /// Per-tet results of one evaluation, written by tet index from any thread and read
 /// back in tet order, so sums over them do not depend on the thread count.
