@@ -249,6 +249,13 @@ class ImplicitIntegrator {
                                              const Eigen::VectorXd* impulses);
   [[nodiscard]] Eigen::VectorXd incremental_residual(const StepSettings& s, const Checkpoint& start,
                                                      const Eigen::VectorXd& v, const Eigen::VectorXd* impulses);
+  /// y = ∇²E x, the Hessian of solve_exactly()'s E at the last evaluate(): its damping
+  /// term is −h β K₀ (the stiffness at the step's start, m_start_elements), where the
+  /// assembled A has −h β K(x), so ∇²E x = A x + h β (K(x) − K₀) x; `damping` is h β.
+  void multiply_hessian(double damping, const Eigen::VectorXd& x, Eigen::VectorXd& y);
+  /// From dv = A⁻¹ b toward ∇²E⁻¹ b (solve_exactly()): conjugate gradients on ∇²E from dv,
+  /// preconditioned by A's factor; `damping` is h β.
+  void refine_toward_hessian(double damping, const Eigen::VectorXd& b, Eigen::VectorXd& dv);
   /// Armijo backtracking from v along dv (decrement −∇Eᵀdv): v, energy and the nodes move
   /// to the first step that lowers E enough. False, and the nodes back at v, when none does.
   /// The system's scales of K and M for a step of h (A = m_scale M − k_scale K).
@@ -285,6 +292,7 @@ class ImplicitIntegrator {
   bool m_pattern_dirty = true;               ///< a split or pin changed the connectivity
   int m_factorizations = 0;
   std::vector<Mat34> m_tet_rhs;              ///< per tet: f + (β + h) K v at its corners
+  std::vector<Mat34> m_tet_damping_change;   ///< multiply_hessian(): per tet (K(x) − K₀) x at its corners
   /// Conjugate gradients' warm start. After two solves in a row at the same dt with no
   /// contact correction between (m_smooth_solves ≥ 2) it is the linear extrapolation
   /// 2 Δv_last − Δv_previous: a smoothly moving body (a sagging cantilever, free flight)
