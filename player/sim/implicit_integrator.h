@@ -212,8 +212,9 @@ class ImplicitIntegrator {
   /// linear step with the forces linearised about the start; a part turning fast about a
   /// hinge, or a stiff body crushed, then ends the step on lines with strain the linear
   /// model did not see, and energy the step did not have (issue 16). Here each iteration
-  /// solves with the exact stiffness (projected, so A stays positive definite) and a
-  /// backtracking line search keeps E from rising. Call after solve(), before another
+  /// factors A with the exact stiffness (projected, so A stays positive definite), takes
+  /// its step on to ∇²E's (refine_toward_hessian: E's damping is the start's stiffness),
+  /// and a backtracking line search keeps E from rising. Call after solve(), before another
   /// evaluate(); `start`: the state solve() started from, saved with save(). Starts from
   /// the current positions x, at v = (x − x₀) / h: solve()'s answer, or that answer turned
   /// on arcs (World does: it starts with less strain). Leaves the last iteration's system

@@ -115,7 +115,9 @@ void ImplicitIntegrator::multiply_hessian(double damping, const Eigen::VectorXd&
     for (int l = 0; l < size; ++l) m_tet_damping_change[first + l] = now[l] - start[l];
   });
   parallel_for_range<Index>(m_system.free_count(), 256, [&](const tbb::blocked_range<Index>& range) {
-    for (Index c = range.begin(); c != range.end(); ++c) y.segment<3>(3 * c) += damping * m_system.gather(c, m_tet_damping_change);
+    for (Index c = range.begin(); c != range.end(); ++c) {
+      y.segment<3>(3 * c) += damping * m_system.gather(c, m_tet_damping_change);
+    }
   });
 }
 
@@ -124,7 +126,7 @@ void ImplicitIntegrator::refine_toward_hessian(double damping, const Eigen::Vect
   // start, as solve() damps; A, assembled from the iteration's own stiffness, has
   // −h β K(x) in its place. Where the two differ (a body turned or crushed within the
   // step) A's Newton steps fall short by the same share every iteration: on the bunny at
-  // ν = 0.4999 the decrement halved per iteration, 23 factorizations per exact substep.
+  // ν = 0.4999 the decrement halved per iteration, 24–27 factorizations per exact substep.
   // Conjugate gradients on ∇²E itself, preconditioned by A's factor, take most of the
   // rest of the way. They stop at a direction of non-positive curvature (Steihaug),
   // where the step so far still lowers the quadratic model; the step is kept only while
