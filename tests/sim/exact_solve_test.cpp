@@ -29,6 +29,13 @@ struct SpinningBar {
     body->set_velocities(v);
   }
 
+  /// One linear step of `s`, the state it started from kept in `start`.
+  void step_linearly(const StepSettings& s) {
+    body->save(start);
+    ASSERT_EQ(body->step(s), SolveStatus::Converged);
+  }
+  ImplicitIntegrator::Checkpoint start;
+
   [[nodiscard]] double energy(const Vec3& gravity) const {
     return body->energy() - gravity.dot(body->positions() * body->node_masses());
   }
@@ -66,10 +73,9 @@ TEST(ExactSolve, ConvergedAnswerSolvesTheStepWithTheForcesAtItsEnd) {
   SpinningBar bar(material, 10.0);
   StepSettings s;
   s.dt = 0.05;  // the bar turns 0.5 rad in a step
+  ASSERT_NO_FATAL_FAILURE(bar.step_linearly(s));
   ImplicitIntegrator& body = *bar.body;
-  ImplicitIntegrator::Checkpoint start;
-  body.save(start);
-  ASSERT_EQ(body.step(s), SolveStatus::Converged);
+  const ImplicitIntegrator::Checkpoint& start = bar.start;
   const double linear_residual = step_residual(body, start, s).cwiseAbs().maxCoeff();
   const ImplicitIntegrator::ExactSolve exact = body.solve_exactly(s, start, 50);
   ASSERT_TRUE(exact.converged);
@@ -96,10 +102,9 @@ TEST(ExactSolve, NewtonStepsTakeTheDampingAtTheStepsStart) {
   SpinningBar bar(material, 10.0);
   StepSettings s;
   s.dt = 0.05;
+  ASSERT_NO_FATAL_FAILURE(bar.step_linearly(s));
   ImplicitIntegrator& body = *bar.body;
-  ImplicitIntegrator::Checkpoint start;
-  body.save(start);
-  ASSERT_EQ(body.step(s), SolveStatus::Converged);
+  const ImplicitIntegrator::Checkpoint& start = bar.start;
   const double linear_residual = step_residual(body, start, s).cwiseAbs().maxCoeff();
   const ImplicitIntegrator::ExactSolve exact = body.solve_exactly(s, start, 50);
   std::printf("Newton iterations with h β = h²: %d\n", exact.iterations);
