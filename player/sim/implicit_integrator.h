@@ -198,7 +198,8 @@ class ImplicitIntegrator {
 
   /// What solve_exactly() did.
   struct ExactSolve {
-    int iterations = 0;      ///< Newton iterations, one factorization each
+    int iterations = 0;      ///< Newton iterations
+    int factorizations = 0;  ///< of A: the first iteration's, and where an old one no longer served
     bool converged = false;  ///< the Newton decrement fell below the tolerance
     /// NotPositiveDefinite: a factorization failed; the body is back at solve()'s answer,
     /// solved again, so the contact response has a valid system.
@@ -212,9 +213,10 @@ class ImplicitIntegrator {
   /// linear step with the forces linearised about the start; a part turning fast about a
   /// hinge, or a stiff body crushed, then ends the step on lines with strain the linear
   /// model did not see, and energy the step did not have (issue 16). Here each iteration
-  /// factors A with the exact stiffness (projected, so A stays positive definite), takes
-  /// its step on to ∇²E's (refine_toward_hessian: E's damping is the start's stiffness),
-  /// and a backtracking line search keeps E from rising. Call after solve(), before another
+  /// takes a Newton step on ∇²E, with the exact stiffness (projected, so A stays positive
+  /// definite), by conjugate gradients preconditioned by a factor of A: the first
+  /// iteration's, refreshed where the gradients take long (refine_toward_hessian); a
+  /// backtracking line search keeps E from rising. Call after solve(), before another
   /// evaluate(); `start`: the state solve() started from, saved with save(). Starts from
   /// the current positions x, at v = (x − x₀) / h: solve()'s answer, or that answer turned
   /// on arcs (World does: it starts with less strain). Leaves the last iteration's system
@@ -254,9 +256,14 @@ class ImplicitIntegrator {
   /// term is −h β K₀ (the stiffness at the step's start, m_start_elements), where the
   /// assembled A has −h β K(x), so ∇²E x = A x + h β (K(x) − K₀) x; `damping` is h β.
   void multiply_hessian(double damping, const Eigen::VectorXd& x, Eigen::VectorXd& y);
-  /// From dv = A⁻¹ b toward ∇²E⁻¹ b (solve_exactly()): conjugate gradients on ∇²E from dv,
-  /// preconditioned by A's factor; `damping` is h β.
-  void refine_toward_hessian(double damping, const Eigen::VectorXd& b, Eigen::VectorXd& dv);
+  /// From dv = P⁻¹ b (P the factored A: this iteration's where `fresh`, else an earlier
+  /// one's) toward ∇²E⁻¹ b (solve_exactly()): conjugate gradients on ∇²E from dv,
+  /// preconditioned by P; `damping` is h β. Nothing to do where P is ∇²E (fresh, β = 0).
+  struct HessianStep {
+    int iterations = 0;
+    bool converged = false;
+  };
+  HessianStep refine_toward_hessian(double damping, bool fresh, const Eigen::VectorXd& b, Eigen::VectorXd& dv);
   /// Armijo backtracking from v along dv (decrement −∇Eᵀdv): v, energy and the nodes move
   /// to the first step that lowers E enough. False, and the nodes back at v, when none does.
   /// The system's scales of K and M for a step of h (A = m_scale M − k_scale K).

@@ -22,6 +22,9 @@ constexpr int kMostHalvings = 30;
 /// relative residual, or after this many iterations.
 constexpr double kHessianStepTolerance = 1e-3;
 constexpr int kMostHessianStepIterations = 20;
+/// An iteration whose conjugate gradients took more than this many iterations on an
+/// earlier iteration's factor makes the next iteration factor its own A.
+constexpr int kRefactorAfterIterations = 8;
 /// Converged when the Newton decrement −∇Eᵀδ (twice the decrease the quadratic model
 /// promises) is below this share of E's terms' magnitudes: the energy is then right to
 /// far below the 1 % the energy check allows.
@@ -53,15 +56,19 @@ ImplicitIntegrator::ExactSolve ImplicitIntegrator::solve_exactly(const StepSetti
   double energy = incremental_potential(s, start, v, impulses);
   const double scale = std::abs(energy) + kinetic_energy() + 0.5 * start.velocities.colwise().squaredNorm().dot(m_mass);
   Eigen::VectorXd dv(m_system.rows());
+  bool factor_next = true;  // the first iteration factors its A; later ones while the old factor serves
   while (out.iterations < max_iterations) {
     evaluate(exact, false);
     const Eigen::VectorXd b = incremental_residual(s, start, v, impulses);
     m_system.assemble(m_elasticity, m_elements, m_mass, m_system_k_scale, m_system_m_scale);
     ++out.iterations;
-    bool solved = refactor(false);
+    const bool fresh = factor_next;
+    bool solved = !fresh || refactor(false);
+    out.factorizations += fresh ? 1 : 0;
     if (solved) {
       m_factor.solve(b, dv);
-      refine_toward_hessian(h * m_material.rayleigh_stiffness, b, dv);
+      const HessianStep step = refine_toward_hessian(h * m_material.rayleigh_stiffness, fresh, b, dv);
+      factor_next = !fresh && (!step.converged || step.iterations > kRefactorAfterIterations);
       solved = dv.allFinite();
     }
     if (!solved) {
@@ -90,12 +97,13 @@ ImplicitIntegrator::ExactSolve ImplicitIntegrator::solve_exactly(const StepSetti
     m_last_dv.col(n) = m_velocities.col(n) - start.velocities.col(n);
   }
   m_smooth_solves = 0;  // as after a contact correction: the next Δv does not extrapolate this one
-  m_iterations = 0;     // the factor is fresh: a lagged preconditioner may keep it
+  m_iterations = 0;     // the factor is of this re-solve's A: a lagged preconditioner may keep it
   return out;
 }
 
 void ImplicitIntegrator::multiply_hessian(double damping, const Eigen::VectorXd& x, Eigen::VectorXd& y) {
   symmetric_product(m_system.matrix(), x, y);
+  if (damping == 0.0) return;
   // Per tet (K(x) − K₀) x_t, then per free node its sum over its slots in tet order, as
   // BlockSystem::product sums: the result does not depend on the thread count.
   const Matrix4Xu& tets = m_elasticity.tets();
@@ -115,28 +123,35 @@ void ImplicitIntegrator::multiply_hessian(double damping, const Eigen::VectorXd&
     for (int l = 0; l < size; ++l) m_tet_damping_change[first + l] = now[l] - start[l];
   });
   parallel_for_range<Index>(m_system.free_count(), 256, [&](const tbb::blocked_range<Index>& range) {
-    for (Index c = range.begin(); c != range.end(); ++c) {
-      y.segment<3>(3 * c) += damping * m_system.gather(c, m_tet_damping_change);
-    }
+    for (Index c = range.begin(); c != range.end(); ++c) y.segment<3>(3 * c) += damping * m_system.gather(c, m_tet_damping_change);
   });
 }
 
-void ImplicitIntegrator::refine_toward_hessian(double damping, const Eigen::VectorXd& b, Eigen::VectorXd& dv) {
+ImplicitIntegrator::HessianStep ImplicitIntegrator::refine_toward_hessian(double damping, bool fresh,
+                                                                         const Eigen::VectorXd& b, Eigen::VectorXd& dv) {
   // Rayleigh damping's term of E is −½ h β vᵀ K₀ v, with the stiffness at the step's
   // start, as solve() damps; A, assembled from the iteration's own stiffness, has
   // −h β K(x) in its place. Where the two differ (a body turned or crushed within the
-  // step) A's Newton steps fall short by the same share every iteration: on the bunny at
-  // ν = 0.4999 the decrement halved per iteration, 24–27 factorizations per exact substep.
-  // Conjugate gradients on ∇²E itself, preconditioned by A's factor, take most of the
-  // rest of the way. They stop at a direction of non-positive curvature (Steihaug),
-  // where the step so far still lowers the quadratic model; the step is kept only while
-  // it is a descent direction.
-  if (damping == 0.0) return;
+  // step) A's Newton steps fell short by the same share every iteration: on the bunny at
+  // ν = 0.4999 the decrement halved per iteration, 24–27 factorizations per exact
+  // substep. Conjugate gradients on ∇²E itself, preconditioned by a factor of A (this
+  // iteration's, or an earlier one's), take the step the rest of the way. They stop at a
+  // direction of non-positive curvature (Steihaug), where the step so far still lowers
+  // the quadratic model; the step is kept only while it is a descent direction.
+  HessianStep out;
+  if (damping == 0.0 && fresh) {
+    out.converged = true;  // A is ∇²E and dv its exact step
+    return out;
+  }
   Eigen::VectorXd refined = dv;
-  conjugate_gradient([&](const Eigen::VectorXd& x, Eigen::VectorXd& y) { multiply_hessian(damping, x, y); }, b,
-                     refined, [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { m_factor.solve(r, z); },
-                     kHessianStepTolerance, kMostHessianStepIterations);
+  const ConjugateGradientResult cg = conjugate_gradient(
+      [&](const Eigen::VectorXd& x, Eigen::VectorXd& y) { multiply_hessian(damping, x, y); }, b, refined,
+      [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { m_factor.solve(r, z); }, kHessianStepTolerance,
+      kMostHessianStepIterations);
   if (refined.allFinite() && b.dot(refined) > 0.0) dv.swap(refined);
+  out.iterations = cg.iterations;
+  out.converged = cg.converged;
+  return out;
 }
 
 bool ImplicitIntegrator::backtrack(const StepSettings& s, const Checkpoint& start, const Eigen::VectorXd* impulses,

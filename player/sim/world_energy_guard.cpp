@@ -117,7 +117,7 @@ void World::solve_bodies_exactly(const StepSettings& step, StepReport& report,
     const ImplicitIntegrator::ExactSolve exact = m_bodies[bi].integrator().solve_exactly(
         step, m_substep_checkpoint[bi], m_settings.exact_iterations, impulses ? &(*impulses)[bi] : nullptr);
     report.exact_iterations += exact.iterations;
-    report.factorizations += exact.iterations;
+    report.factorizations += exact.factorizations;
   }
 }
 
