@@ -123,7 +123,7 @@ class CorotatedElasticity {
   std::vector<double> m_volume;
   double m_mu, m_lambda;
   /// energy()'s last answer and the positions it is for (a polar decomposition per tet
-  /// saved when asked again; World::measure_substep_start), with each tet's F and Q
+  /// saved when asked again; EnergyGuard::measure_substep_start), with each tet's F and Q
   /// there. The energy guard measures a substep's end, and the next substep's
   /// evaluate() starts from the same positions: it takes F and Q from here, the same
   /// bits it would compute (the same sums and the same lane batches).

@@ -4,7 +4,7 @@
 /// substep never above its start's energy plus what was put in during it. Bookkeeping
 /// only: World measures the energies and tells this when a run and a substep start and
 /// what was put in; this says the limits its energy guard tests against
-/// (world_energy_guard.cpp). Each limit carries a rounding allowance of 1e-9 of the
+/// (energy_guard.h). Each limit carries a rounding allowance of 1e-9 of the
 /// magnitudes summed, so a substep that only rounds is never taken for one that gains.
 
 #include <algorithm>

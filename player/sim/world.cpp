@@ -111,22 +111,12 @@ World::World(std::vector<BodyDescription> bodies, Environment environment, std::
   for (const Body& b : m_bodies) m_previous_positions.push_back(b.integrator().positions());
   m_deformation.resize(m_bodies.size());
   m_deformation_step.assign(m_bodies.size(), 0);
-  m_energy.start_run(total_energy());
+  m_guard.budget().start_run(total_energy());
   // The first step's factorizations happen here, at load, not in a step.
   StepSettings first = m_settings.step;
   first.dt /= planned_substeps();
   for (Body& b : m_bodies) b.integrator().prepare(first);
 }
-
-Body::Body(std::string name_, std::unique_ptr<ImplicitIntegrator> integrator, FractureTopology topology_,
-           FractureSettings fracture_, ContactMaterial contact_, EmbeddedPoints spheres_, EmbeddedPoints vertices_)
-    : name(std::move(name_)),
-      topology(std::move(topology_)),
-      fracture(fracture_),
-      contact(contact_),
-      spheres(std::move(spheres_)),
-      vertices(std::move(vertices_)),
-      m_integrator(std::move(integrator)) {}
 
 const char* to_string(StepOutcome outcome) {
   switch (outcome) {
@@ -150,7 +140,7 @@ StepReport World::step() {
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_checkpoint.split_overlaps[bi] = m_bodies[bi].split_overlaps;
   m_checkpoint.sphere_counts.resize(m_bodies.size());
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_checkpoint.sphere_counts[bi] = m_bodies[bi].spheres.size();
-  m_checkpoint.energy_put_in = m_energy.put_in();
+  m_checkpoint.energy_put_in = m_guard.budget().put_in();
   const int substeps = planned_substeps();
   for (int i = 0; i < substeps && report.status.ok(); ++i) {
     report.status = advance(m_settings.step.dt / substeps, report, 0);
@@ -219,29 +209,35 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   }
   ++report.substeps;
   // What the bodies' checkpoint does not hold, to take the substep again as halves.
-  const SubstepStart start{m_projectiles, m_energy.put_in()};
+  const SubstepStart start{m_projectiles, m_guard.budget().put_in()};
   const bool resolves = m_settings.exact_when_gaining != ExactResolve::Never;
-  if (resolves) save_motion(m_linear_motion);
+  if (resolves) m_guard.save_linear_answer(guarded());
   launch_and_move_projectiles(dt);
   if (m_settings.collisions) collide(dt, report);
-  if (m_settings.exact_when_gaining == ExactResolve::SolveAndContacts) save_motion(m_contact_motion);
-  if (m_settings.rotate_on_arcs) rotate_fragments_on_arcs(m_start_positions);
-  const bool may_halve = halves_when_gaining(dt, depth);
+  if (m_settings.exact_when_gaining == ExactResolve::SolveAndContacts) m_guard.save_contact_answer(guarded());
+  if (m_settings.rotate_on_arcs) {
+    rotate_fragments_on_arcs(m_bodies, m_start_positions, m_settings.contacts.rigid_fragments_below, m_node_fragment);
+  }
+  const bool may_halve = EnergyGuard::halves_when_gaining(m_settings, dt, depth);
   const bool moves_chips = m_settings.rigid_when_gaining_below > 0;
+  GuardedWorld world = guarded();
   // The exact re-solve measures the substep's energy anyway; without it, only where a
-  // repair may follow (the start first: see solve_exactly_if_gaining).
+  // repair may follow (the start first: see EnergyGuard::solve_exactly_if_gaining).
   double energy = 0.0;
   if (resolves) {
-    energy = solve_exactly_if_gaining(step, report);
+    energy = m_guard.solve_exactly_if_gaining(world, step, report, [this](double h, StepReport& r) {
+      launch_and_move_projectiles(h);
+      if (m_settings.collisions) collide(h, r);
+    });
   } else if (may_halve || moves_chips) {
-    measure_substep_start();
+    m_guard.measure_substep_start(world);
     energy = total_energy();
   }
-  const auto above_all = [&](double e) { return e > substep_energy_limit() && e > m_energy.run_limit(); };
-  if (moves_chips && above_all(energy)) {
-    energy = move_gaining_chips_rigidly(energy, std::max(substep_energy_limit(), m_energy.run_limit()), report);
+  if (moves_chips && m_guard.above_all(world, energy)) {
+    const double limit = std::max(m_guard.substep_limit(world), m_guard.budget().run_limit());
+    energy = m_guard.move_gaining_chips_rigidly(world, energy, limit, report);
   }
-  if (may_halve && above_all(energy)) {
+  if (may_halve && m_guard.above_all(world, energy)) {
     // Still above its budget after every repair, and above all the run was given: the
     // substep is too long for what happens in it (WorldSettings::energy_halvings).
     return take_again_as_halves(start, dt, report, depth);
@@ -250,24 +246,20 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   return {};
 }
 
-void World::find_node_fragments(std::size_t bi) {
-  const Body& b = m_bodies[bi];
-  const Matrix4Xu& tets = b.integrator().elasticity().tets();
-  const std::vector<Index>& tet_fragment = b.topology.tet_fragment();
-  m_node_fragment.assign(b.integrator().node_count(), 0);
-  for (Eigen::Index t = 0; t < tets.cols(); ++t) {
-    for (int k = 0; k < 4; ++k) m_node_fragment[tets(k, t)] = tet_fragment[t];
-  }
+StepStatus World::take_again_as_halves(const SubstepStart& start, double dt, StepReport& report, int depth) {
+  // The contact warm starts stay as the substep left them: they are only guesses.
+  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) m_bodies[bi].integrator().restore(m_substep_checkpoint[bi]);
+  m_projectiles = start.projectiles;
+  m_guard.budget().restore_put_in(start.energy_put_in);
+  --report.substeps;
+  ++report.energy_halvings;
+  const StepStatus first = advance(0.5 * dt, report, depth + 1);
+  return first.ok() ? advance(0.5 * dt, report, depth + 1) : first;
 }
 
-void World::rotate_fragments_on_arcs(const std::vector<Matrix3Xd>& from) {
-  for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
-    Body& b = m_bodies[bi];
-    find_node_fragments(bi);
-    const std::vector<std::uint8_t> small = small_fragments(b.topology.tet_fragment(), b.topology.fragment_count(),
-                                                            m_settings.contacts.rigid_fragments_below);
-    b.integrator().rotate_rigid_parts(from[bi], m_node_fragment, b.topology.fragment_count(), small);
-  }
+
+GuardedWorld World::guarded() {
+  return {m_bodies, m_projectiles, m_contact_impulses, m_start_positions, m_substep_checkpoint, m_settings};
 }
 
 void World::fracture_bodies(StepReport& report) {
@@ -308,7 +300,7 @@ StepStatus World::solve_bodies(const StepSettings& step, StepReport& report) {
     m_bodies[bi].integrator().save(before[bi]);
     m_start_positions[bi] = m_bodies[bi].integrator().positions();
   }
-  m_energy.forget_bodies_at_substep_start();
+  m_guard.budget().forget_bodies_at_substep_start();
   for (std::size_t bi = 0; bi < m_bodies.size(); ++bi) {
     ImplicitIntegrator& body = m_bodies[bi].integrator();
     const int factorizations_before = body.factorizations();
@@ -333,12 +325,12 @@ void World::launch_and_move_projectiles(double dt) {
   for (const Projectile& p : m_projectiles) {
     if (p.launched) projectile_energy += 0.5 * p.mass * p.velocity.squaredNorm() - p.mass * m_settings.step.gravity.dot(p.position);
   }
-  m_energy.start_substep(projectile_energy);
+  m_guard.budget().start_substep(projectile_energy);
   for (std::size_t j = 0; j < m_projectiles.size(); ++j) {
     Projectile& p = m_projectiles[j];
     if (!p.launched && p.launch_time <= m_time + 0.5 * dt) {
       p.launched = true;  // it enters the world with its kinetic and gravity energy
-      m_energy.put_in(0.5 * p.mass * p.velocity.squaredNorm() - p.mass * m_settings.step.gravity.dot(p.position));
+      m_guard.budget().put_in(0.5 * p.mass * p.velocity.squaredNorm() - p.mass * m_settings.step.gravity.dot(p.position));
     }
     m_projectile_start[j] = p.position;
     if (!p.launched) continue;
@@ -379,7 +371,7 @@ void World::collide(double dt, StepReport& report) {
     m_sleeping.note_wakes(sleep_bodies(), m_touches, wake_speed);
   }
   const bool restitutes = m_settings.restitution_within_budget && contacts.restituting() > 0;
-  if (restitutes) save_motion(m_free_motion);
+  if (restitutes) m_guard.save_free_motion(guarded());
   // In a pile, substep after substep ends above its budget even inelastically (the
   // push-out of overlaps: 329 of 349 limited substeps on the bunny at toughness 0.2), so
   // the restitution's answer, solved first, was thrown away each time. There, after such
@@ -392,25 +384,16 @@ void World::collide(double dt, StepReport& report) {
   // impulses sweep to their cap is a pile too (pile.h): at toughness 0 it made the step
   // 0.84× as long. Outside a pile (no response ran long or swept to its cap lately)
   // the wasted answer is cheap, and the order stays: restitution first.
-  const bool inelastic_first = m_settings.inelastic_first_in_piles && restitutes && m_restitution_futile && m_pile.in_pile();
+  const bool inelastic_first = m_settings.inelastic_first_in_piles && restitutes && m_guard.restitution_futile() && m_pile.in_pile();
   const ContactCounts counts = contacts.respond(inelastic_first ? 0.0 : 1.0);
   report.contacts.contacts += counts.contacts;
   report.contacts.swept += counts.swept;
   report.contacts.pairs_tested += counts.pairs_tested;
-  report.contacts.response_iterations += counts.response_iterations;
-  report.contacts.response_sweeps += counts.response_sweeps;
-  report.contacts.rigid_answers += counts.rigid_answers;
-  report.contacts.responses += counts.responses;
+  report.contacts.add_response(counts);
   report.contacts.restituting += counts.restituting;
   if (restitutes) {
-    const double limit = substep_energy_limit();
-    if (inelastic_first) {
-      add_restitution_within(contacts, limit, report);
-    } else if (total_energy() > limit) {
-      keep_restitution_within(contacts, limit, report);
-    } else {
-      m_restitution_futile = false;
-    }
+    GuardedWorld world = guarded();
+    m_guard.keep_restitution_within_budget(world, contacts, inelastic_first, report);
   }
   m_pile.note(counts, m_settings.contacts.sparse_block_memory);
   report.collisions += seconds_since(start);
@@ -446,7 +429,7 @@ void World::roll_back(const StepReport& report) {
     m_bodies[bi].split_overlaps = m_checkpoint.split_overlaps[bi];
     m_stand_ins[bi].truncate(m_bodies[bi].spheres, m_checkpoint.sphere_counts[bi]);
   }
-  m_energy.restore_put_in(m_checkpoint.energy_put_in);
+  m_guard.budget().restore_put_in(m_checkpoint.energy_put_in);
   m_time = m_checkpoint.time;
 }
 
@@ -523,7 +506,7 @@ void World::set_velocities(Index body, const Matrix3Xd& velocities) {
   ImplicitIntegrator& integrator = m_bodies.at(body).integrator();
   const double before = integrator.kinetic_energy();
   integrator.set_velocities(velocities);
-  m_energy.put_in(integrator.kinetic_energy() - before);
+  m_guard.budget().put_in(integrator.kinetic_energy() - before);
 }
 
 }  // namespace fissure::sim

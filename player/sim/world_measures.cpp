@@ -25,29 +25,11 @@ BodyFrame World::frame(Index body, bool with_deformation) const {
           b.topology.face_states(), b.topology.tet_fragment(), b.topology.version()};
 }
 
-double World::kinetic_energy() const {
-  double e = 0.0;
-  for (const Body& b : m_bodies) e += b.integrator().kinetic_energy();
-  for (const Projectile& p : m_projectiles) {
-    if (p.launched) e += 0.5 * p.mass * p.velocity.squaredNorm();
-  }
-  return e;
-}
+double World::kinetic_energy() const { return sim::kinetic_energy(m_bodies, m_projectiles); }
 
-double World::elastic_energy() const {
-  double e = 0.0;
-  for (const Body& b : m_bodies) e += b.integrator().elasticity().energy(b.integrator().positions());
-  return e;
-}
+double World::elastic_energy() const { return sim::elastic_energy(m_bodies); }
 
-double World::potential_energy() const {
-  double e = 0.0;
-  for (const Body& b : m_bodies) e -= m_settings.step.gravity.dot(b.integrator().positions() * b.integrator().node_masses());
-  for (const Projectile& p : m_projectiles) {
-    if (p.launched) e -= p.mass * m_settings.step.gravity.dot(p.position);
-  }
-  return e;
-}
+double World::potential_energy() const { return sim::potential_energy(m_bodies, m_projectiles, m_settings.step.gravity); }
 
 Vec3 World::linear_momentum() const {
   Vec3 p = Vec3::Zero();

@@ -1,5 +1,5 @@
 // Issue 16's energy bound where contacts could break it: restitution on coupled
-// contacts (World::keep_restitution_within) and collision spheres that a split leaves
+// contacts (EnergyGuard::keep_restitution_within) and collision spheres that a split leaves
 // overlapping (split_overlaps.h).
 
 #include <gtest/gtest.h>

@@ -101,7 +101,7 @@ TEST(Spin, StepsThatGainOnLinesAreTakenAgainAsHalves) {
 
 // A chip (a fragment of fewer tets than WorldSettings::rigid_when_gaining_below) whose
 // substep still gains after the exact re-solve moves rigidly from the substep's start
-// instead (World::move_gaining_chips_rigidly): its shape is the start's, its velocities
+// instead (EnergyGuard::move_gaining_chips_rigidly): its shape is the start's, its velocities
 // the rigid field of their momenta, so it cannot gain. On lines a tumbling stiff cube
 // gains in every step; with the repair it keeps the bound with no halving, and without
 // it gains as the bar does.

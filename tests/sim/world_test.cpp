@@ -115,7 +115,7 @@ TEST(World, BitIdenticalAcrossThreadCountsAndRuns) {
 // moved to the Prescott kernels, to be the same on every x86-64 machine; and again
 // when fragments started turning on arcs (issue 16, player/sim/rigid_rotation.h); and
 // when restitution was kept within each substep's energy and split-born sphere overlaps
-// were held (issue 16, World::keep_restitution_within, split_overlaps.h); and when the
+// were held (issue 16, EnergyGuard::keep_restitution_within, split_overlaps.h); and when the
 // contact response's steps took a line search, and its momentum balance left the
 // pieces without contacts alone (issue 16, contact_response.cpp); and when the
 // response's iterations also stopped only once no contact pushed past its target, and
@@ -541,7 +541,7 @@ TEST_P(Stability, NoNonFiniteValuesNoExceptionsAndBoundedEnergy) {
 // 0.099-0.113 J, nothing gained); so over several seeds the bound is now the real one.
 //
 // Nearly incompressible (ν = 0.499) it keeps the bound too, and it is the case that
-// showed an exact re-solve (World::solve_exactly_if_gaining) must be taken only where
+// showed an exact re-solve (EnergyGuard::solve_exactly_if_gaining) must be taken only where
 // the linear solve itself gains: re-solving every substep that ended above its budget
 // because of its contacts took it to ×1e8 in every seed (docs/decisions/0032-exact-resolve-where-a-substep-gains.md).
 TEST(Stability, AStiffSliverOnTheGroundAtLargeStepsDoesNotRunAway) {

@@ -401,7 +401,7 @@ ContactCounts StepContacts::respond(double restitution_share, int iterations) {
   counts.responses = 1;
   counts.ran_long = outcome.ran_long;
   counts.swept_to_cap = outcome.swept_to_cap;
-  // Answering again (World::keep_restitution_within) meets the same pile.
+  // Answering again (EnergyGuard::keep_restitution_within) meets the same pile.
   m_settings.sparse_blocks_from_start = m_settings.sparse_blocks_from_start || outcome.ran_long;
   if (m_settings.impulses != nullptr) {
     m_settings.impulses->clear();

@@ -64,6 +64,15 @@ struct ContactCounts {
   std::size_t restituting = 0;   ///< contacts whose target restitution raised (impacts above the resting speed)
   bool ran_long = false;         ///< the response's ContactResponseReport::ran_long
   bool swept_to_cap = false;     ///< the response's ContactResponseReport::swept_to_cap
+
+  /// Adds what another answer of the same contacts cost (its iterations, sweeps, rigid
+  /// answers and responses), not its contacts.
+  void add_response(const ContactCounts& answer) {
+    response_iterations += answer.response_iterations;
+    response_sweeps += answer.response_sweeps;
+    rigid_answers += answer.rigid_answers;
+    responses += answer.responses;
+  }
 };
 
 /// The contacts of one step, found once (detection and targets), then answered by the
