@@ -1,5 +1,7 @@
 #include "player/sim/body.h"
 
+#include <utility>
+
 #include "player/sim/rigid_rotation.h"
 
 namespace fissure::sim {

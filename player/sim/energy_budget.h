@@ -2,9 +2,9 @@
 /// What energy a world may hold (issue 16): the physics may only lose energy, so the run
 /// never ends a substep above its energy when built plus what was put in since, and a
 /// substep never above its start's energy plus what was put in during it. Bookkeeping
-/// only: World measures the energies and tells this when a run and a substep start and
-/// what was put in; this says the limits its energy guard tests against
-/// (energy_guard.h). Each limit carries a rounding allowance of 1e-9 of the
+/// only: World and its energy guard (energy_guard.h) measure the energies and tell this
+/// when a run and a substep start and what was put in; this says the limits the guard
+/// tests against. Each limit carries a rounding allowance of 1e-9 of the
 /// magnitudes summed, so a substep that only rounds is never taken for one that gains.
 
 #include <algorithm>

@@ -73,7 +73,7 @@ void EnergyGuard::resolve_exactly(GuardedWorld& world, const StepSettings& step,
   solve_bodies_exactly(world, step, report, nullptr);
   m_exact_positions.resize(world.bodies.size());
   for (std::size_t bi = 0; bi < world.bodies.size(); ++bi) m_exact_positions[bi] = world.bodies[bi].integrator().positions();
-  contacts_again(step.dt, report);
+  contacts_again();
   // The contacts' correction moves on lines like any linear answer; its turn goes on arcs.
   if (world.settings.rotate_on_arcs) {
     rotate_fragments_on_arcs(world.bodies, m_exact_positions, world.settings.contacts.rigid_fragments_below,
@@ -293,7 +293,7 @@ double EnergyGuard::substep_limit(const GuardedWorld& world) {
 
 void EnergyGuard::measure_substep_start(const GuardedWorld& world) {
   // The bodies at the substep's start (after its fracture, which keeps energy): the
-  // positions and velocities solve_bodies saved.
+  // positions and velocities World::solve_bodies saved.
   if (m_budget.knows_bodies_at_substep_start()) return;
   for (std::size_t bi = 0; bi < world.bodies.size(); ++bi) {
     const ImplicitIntegrator& b = world.bodies[bi].integrator();

@@ -15,6 +15,7 @@
 /// (GuardedWorld), and the guard keeps only its own state: the budget, and the motions
 /// it compares and blends within one substep.
 
+#include <cstdint>
 #include <functional>
 #include <vector>
 
@@ -59,8 +60,8 @@ class EnergyGuard {
   /// The last substep that restituted ended above its budget even inelastically.
   [[nodiscard]] bool restitution_futile() const { return m_restitution_futile; }
   /// After `contacts` were answered (inelastically where `inelastic_first`, else with
-  /// full restitution): the largest blend of the two answers within the substep's
-  /// budget is kept, answering `contacts` again if it takes the other one.
+  /// full restitution; save_free_motion() before): the largest blend of the two answers
+  /// within the substep's budget is kept, answering `contacts` again for the other one.
   void keep_restitution_within_budget(GuardedWorld& world, StepContacts& contacts, bool inelastic_first,
                                       StepReport& report);
 
@@ -70,11 +71,13 @@ class EnergyGuard {
   void save_linear_answer(const GuardedWorld& world) { save_motion(world, m_linear_motion); }
   /// The linear answer after contacts, before arcs (ExactResolve::SolveAndContacts).
   void save_contact_answer(const GuardedWorld& world) { save_motion(world, m_contact_motion); }
-  /// Moves the projectiles and answers the contacts again, after an exact re-solve.
-  using ContactsAgain = std::function<void(double dt, StepReport& report)>;
+  /// Moves the projectiles and answers the contacts again over the substep, after an
+  /// exact re-solve (World's launch_and_move_projectiles and collide).
+  using ContactsAgain = std::function<void()>;
   /// When the substep ended above its energy budget: back to the linear solve's answer,
   /// every body solved exactly, projectiles and contacts again (`contacts_again`).
-  /// Returns the energy the substep ends with [J].
+  /// Returns the energy the substep ends with [J]. Needs save_linear_answer() earlier in
+  /// the substep (and save_contact_answer() for ExactResolve::SolveAndContacts).
   double solve_exactly_if_gaining(GuardedWorld& world, const StepSettings& step, StepReport& report,
                                   const ContactsAgain& contacts_again);
   /// The substep ends with `energy` above `limit` [J]: the fewest chips (fragments of

@@ -225,9 +225,9 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   // repair may follow (the start first: see EnergyGuard::solve_exactly_if_gaining).
   double energy = 0.0;
   if (resolves) {
-    energy = m_guard.solve_exactly_if_gaining(world, step, report, [this](double h, StepReport& r) {
-      launch_and_move_projectiles(h);
-      if (m_settings.collisions) collide(h, r);
+    energy = m_guard.solve_exactly_if_gaining(world, step, report, [&] {
+      launch_and_move_projectiles(dt);
+      if (m_settings.collisions) collide(dt, report);
     });
   } else if (may_halve || moves_chips) {
     m_guard.measure_substep_start(world);
@@ -256,7 +256,6 @@ StepStatus World::take_again_as_halves(const SubstepStart& start, double dt, Ste
   const StepStatus first = advance(0.5 * dt, report, depth + 1);
   return first.ok() ? advance(0.5 * dt, report, depth + 1) : first;
 }
-
 
 GuardedWorld World::guarded() {
   return {m_bodies, m_projectiles, m_contact_impulses, m_start_positions, m_substep_checkpoint, m_settings};

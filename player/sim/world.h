@@ -212,7 +212,9 @@ class World {
   std::vector<Touch> m_touches;  ///< the last substep's contacts, for sleeping
   std::vector<Index> m_fragment_before;  ///< scratch for fracture_bodies: a body's tet fragments before its splits
   Checkpoint m_checkpoint;
-  std::vector<ImplicitIntegrator::Checkpoint> m_substep_checkpoint;  ///< solve_bodies' scratch
+  /// Per body, the substep's start as solve_bodies saved it: what take_again_as_halves
+  /// restores, and what the energy guard measures and re-solves from (GuardedWorld::substep_start).
+  std::vector<ImplicitIntegrator::Checkpoint> m_substep_checkpoint;
   std::uint64_t m_steps = 0;
   EnergyGuard m_guard;  ///< the substep's energy budget and its repairs (energy_guard.h)
   mutable std::vector<std::vector<Mat3>> m_deformation;   ///< per body, frame()'s cache
