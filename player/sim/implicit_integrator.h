@@ -201,6 +201,9 @@ class ImplicitIntegrator {
     int iterations = 0;      ///< Newton iterations
     int factorizations = 0;  ///< of A: the first iteration's, and where an old one no longer served
     bool converged = false;  ///< the Newton decrement fell below the tolerance
+    /// Newton started from the start's own velocities (x₀ + h v₀), where E was lower than
+    /// at solve()'s answer.
+    bool from_inertial_guess = false;
     /// NotPositiveDefinite: a factorization failed; the body is back at solve()'s answer,
     /// solved again, so the contact response has a valid system.
     SolveStatus status = SolveStatus::Converged;
