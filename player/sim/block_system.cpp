@@ -45,11 +45,19 @@ void BlockSystem::build_blocks(const Matrix4Xu& tets) {
       }
     }
   }
-  std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) {
-    if (a.column != b.column) return a.column < b.column;
-    if (a.row != b.row) return a.row < b.row;
-    return a.term.tet + 1 < b.term.tet + 1;  // the diagonal marker (kInvalidIndex) first
-  });
+  // Two stable counting passes, by row and then by column, leave each block's terms in
+  // the order they were made: the diagonal marker, then tet order. A comparison sort of
+  // the same keys was 2–3 % of a breaking run, which rebuilds the pattern at every split.
+  std::vector<Term> by_row(terms.size());
+  std::vector<std::size_t> start(static_cast<std::size_t>(free) + 1);
+  const auto sort_stably = [&](const std::vector<Term>& in, std::vector<Term>& out, Index Term::*key) {
+    std::fill(start.begin(), start.end(), 0);
+    for (const Term& t : in) ++start[t.*key + 1];
+    for (Index b = 0; b < free; ++b) start[b + 1] += start[b];
+    for (const Term& t : in) out[start[t.*key]++] = t;
+  };
+  sort_stably(terms, by_row, &Term::row);
+  sort_stably(by_row, terms, &Term::column);
 
   m_block_column_start.assign(free + 1, 0);
   m_block_term_start.clear();
