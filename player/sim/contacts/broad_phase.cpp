@@ -71,6 +71,25 @@ std::vector<Candidate> candidates_near_other_pieces(std::span<const std::vector<
               "place the objects apart from one another in the scene (translation), or use fewer of them");
 }
 
+/// Sorts distinct pairs as a comparison sort would, by their first (body, point) and
+/// then their second, with two stable counting passes over the points' ranks: the pairs
+/// of a shatter are thousands a step, and a comparison sort of them was 1.5 % of
+/// toughness 0's run (these passes about 0.5 %).
+void sort_pairs(std::vector<PointPair>& pairs, std::span<const std::vector<SweptPoint>> sweeps) {
+  std::vector<std::size_t> first_rank(sweeps.size() + 1, 0);  // per body: its point 0's rank
+  for (std::size_t b = 0; b < sweeps.size(); ++b) first_rank[b + 1] = first_rank[b] + sweeps[b].size();
+  std::vector<std::size_t> start(first_rank.back() + 1);
+  std::vector<PointPair> sorted(pairs.size());
+  const auto sort_stably = [&](const std::vector<PointPair>& in, std::vector<PointPair>& out, auto rank) {
+    std::fill(start.begin(), start.end(), 0);
+    for (const PointPair& p : in) ++start[rank(p) + 1];
+    for (std::size_t r = 0; r + 1 < start.size(); ++r) start[r + 1] += start[r];
+    for (const PointPair& p : in) out[start[rank(p)]++] = p;
+  };
+  sort_stably(pairs, sorted, [&](const PointPair& p) { return first_rank[std::get<2>(p)] + std::get<3>(p); });
+  sort_stably(sorted, pairs, [&](const PointPair& p) { return first_rank[std::get<0>(p)] + std::get<1>(p); });
+}
+
 }  // namespace
 
 std::vector<PointPair> self_collision_pairs(std::span<const std::vector<SweptPoint>> sweeps,
@@ -102,7 +121,7 @@ std::vector<PointPair> self_collision_pairs(std::span<const std::vector<SweptPoi
       }
     }
   }
-  std::sort(pairs.begin(), pairs.end());
+  sort_pairs(pairs, sweeps);
   return pairs;
 }
 
