@@ -4,6 +4,7 @@
 #include <map>
 #include <string>
 
+#include "common/counting_sort.h"
 #include "common/error.h"
 
 namespace fissure::sim {
@@ -78,16 +79,12 @@ std::vector<Candidate> candidates_near_other_pieces(std::span<const std::vector<
 void sort_pairs(std::vector<PointPair>& pairs, std::span<const std::vector<SweptPoint>> sweeps) {
   std::vector<std::size_t> first_rank(sweeps.size() + 1, 0);  // per body: its point 0's rank
   for (std::size_t b = 0; b < sweeps.size(); ++b) first_rank[b + 1] = first_rank[b] + sweeps[b].size();
-  std::vector<std::size_t> start(first_rank.back() + 1);
-  std::vector<PointPair> sorted(pairs.size());
-  const auto sort_stably = [&](const std::vector<PointPair>& in, std::vector<PointPair>& out, auto rank) {
-    std::fill(start.begin(), start.end(), 0);
-    for (const PointPair& p : in) ++start[rank(p) + 1];
-    for (std::size_t r = 0; r + 1 < start.size(); ++r) start[r + 1] += start[r];
-    for (const PointPair& p : in) out[start[rank(p)]++] = p;
-  };
-  sort_stably(pairs, sorted, [&](const PointPair& p) { return first_rank[std::get<2>(p)] + std::get<3>(p); });
-  sort_stably(sorted, pairs, [&](const PointPair& p) { return first_rank[std::get<0>(p)] + std::get<1>(p); });
+  const std::size_t ranks = first_rank.back();
+  std::vector<PointPair> by_second;
+  stable_counting_sort(pairs, by_second, ranks,
+                       [&](const PointPair& p) { return first_rank[std::get<2>(p)] + std::get<3>(p); });
+  stable_counting_sort(by_second, pairs, ranks,
+                       [&](const PointPair& p) { return first_rank[std::get<0>(p)] + std::get<1>(p); });
 }
 
 }  // namespace
