@@ -70,11 +70,13 @@ double deepest_vertex(bool reserve) {
 
 TEST(ReserveSpheres, AShatteredBallKeepsItsRenderVerticesOutOfTheGround) {
   const double with = deepest_vertex(true), without = deepest_vertex(false);
-  // 0.20 and 0.53 radii (1.45 and 3.81 mm) in the release build; the break-up is
-  // chaotic, so other builds land elsewhere near them.
+  // 0.24 and 0.35 radii (1.73 and 2.54 mm) in the release build; 0.20 and 0.53 before
+  // stalled contacts stiffened (ContactSettings::stalled_penalty_growth), which keeps the
+  // pieces without the reserve higher too. The break-up is chaotic, so other builds land
+  // elsewhere near them.
   EXPECT_LT(with, 0.3);
-  EXPECT_LT(with, 0.6 * without);
-  EXPECT_GT(without, 0.4) << "the case needs the reserve";
+  EXPECT_LT(with, 0.75 * without);
+  EXPECT_GT(without, 0.3) << "the case needs the reserve";
 }
 
 }  // namespace

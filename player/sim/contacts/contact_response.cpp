@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include "player/sim/conjugate_gradient.h"
@@ -37,7 +38,10 @@ class AugmentedLagrangian {
       : m_system(system), m_rows(system.rows()), m_settings(settings),
         m_delta(Eigen::VectorXd::Zero(system.size())), m_relative(m_rows.size(), Vec3::Zero()),
         m_forces(m_rows.size(), Vec3::Zero()), m_step_relative(m_rows.size()),
-        m_mass_delta(Eigen::VectorXd::Zero(system.size())) {}
+        m_mass_delta(Eigen::VectorXd::Zero(system.size())),
+        m_last_shortfall(m_rows.size(), std::numeric_limits<double>::infinity()), m_first_kappa(m_rows.size()) {
+    for (std::size_t k = 0; k < m_rows.size(); ++k) m_first_kappa[k] = m_rows[k].kappa;
+  }
 
   /// η_k = μ λ_k / |v_t| from the current estimate (lagged Coulomb friction), and the
   /// terms of φ that depend on it.
@@ -103,6 +107,8 @@ class AugmentedLagrangian {
       // on the bodies, energy no contact may add).
       const bool overshoots = m_rows[k].lambda > 0.0 && -shortfall > allowed[k];
       unmet = unmet || shortfall > allowed[k] || overshoots;
+      if (shortfall > allowed[k]) stiffen_if_stalled(k, shortfall);
+      m_last_shortfall[k] = shortfall;
     }
     return {violation, unmet};
   }
@@ -111,6 +117,15 @@ class AugmentedLagrangian {
   [[nodiscard]] const std::vector<Vec3>& forces() const { return m_forces; }
 
  private:
+  /// κ_k grows where contact k pushed and still falls short by more than
+  /// ContactSettings::stalled_shortfall_share of its last shortfall.
+  void stiffen_if_stalled(std::size_t k, double shortfall) {
+    const ContactSettings& settings = m_settings.contacts;
+    Row& row = m_rows[k];
+    if (!row.active || row.projectile || shortfall <= settings.stalled_shortfall_share * m_last_shortfall[k]) return;
+    row.kappa = std::min(settings.stalled_penalty_growth * row.kappa, settings.max_penalty_growth * m_first_kappa[k]);
+  }
+
   [[nodiscard]] double shortfall(std::size_t k) const {
     return m_rows[k].required - m_rows[k].normal.dot(m_relative[k]);
   }
@@ -187,6 +202,8 @@ class AugmentedLagrangian {
   Eigen::VectorXd m_pull;        ///< f_η
   Eigen::VectorXd m_mass_delta, m_mass_direction;  ///< 𝒜 δ, 𝒜 d
   Eigen::VectorXd m_shift;       ///< what apply() will add to δ (JointSystem::momentum_shifts)
+  std::vector<double> m_last_shortfall;  ///< per row, after the last outer iteration
+  std::vector<double> m_first_kappa;     ///< per row, as JointSystem::set_penalties left it
 };
 
 /// Each contact's normal impulse, the next step's warm start.

@@ -70,6 +70,23 @@ struct ContactSettings {
   /// (Aᵢᵢ / mᵢ ~ 1e8) ran away to 1e35 J in the stability grid. With the cap at 1, 4 or 16
   /// the grid holds; the bunny scene's render-vertex penetration is 2.4, 1.5 and 0.8 mm.
   double max_stiffness_share = 16.0;
+  /// A contact that pushed in an outer iteration and still falls short of its target by
+  /// more than this share of what it fell short by after the last one has stalled. Where
+  /// h²K dominates a point's diagonal, max_stiffness_share holds its κ far below what the
+  /// point answers with, and each iteration moved it by 1-3 % of its shortfall: on one
+  /// breaking sample variant 242 of the large piece's 293 responses ran to the iteration
+  /// cap, one or two such contacts still short when they stopped. A stalled
+  /// contact's κ grows by stalled_penalty_growth, up to max_penalty_growth times where it
+  /// started (the classic augmented Lagrangian's penalty update, per contact), so only
+  /// the rows that need it make the inner solves harder. A projectile's contacts keep
+  /// theirs: its velocity comes from its forces, not from δ (JointSystem::apply), and
+  /// growing them let a 1,000 kg projectile under 1e4 m/s² at dt = 0.1 s sink 118 m into
+  /// a light bar. Over the 12 sample variants, growth 4 up to 64: response CG × 0.70,
+  /// step × 0.86; up to 16, or 8 up to 256, cost more
+  /// (docs/decisions/0083-stalled-contacts-stiffen.md). Growth 1: never.
+  double stalled_shortfall_share = 0.5;
+  double stalled_penalty_growth = 4.0;
+  double max_penalty_growth = 64.0;
   /// Sliding slower than this [m/s] counts as sticking: the lagged friction's damping is
   /// capped at μ λ / stick_speed, ...
   double stick_speed = 1e-3;

@@ -410,6 +410,7 @@ void JointSystem::for_each_body_block(const Eigen::VectorXd& in, Eigen::VectorXd
 bool JointSystem::add_side(const ContactSide& s, double sign, Row& row) const {
   if (s.kind == ContactSide::Kind::Projectile) {
     row.entries[row.count++] = {m_projectile_offset[s.owner], sign};
+    row.projectile = true;
     return m_projectiles[s.owner].mass < std::numeric_limits<double>::infinity();
   }
   if (s.kind != ContactSide::Kind::Embedded || m_body_offset[s.owner] < 0) return false;

@@ -53,6 +53,7 @@ struct Row {
   double lambda = 0;
   double eta = 0;      ///< friction damping of this outer iteration [kg]
   bool active = false;
+  bool projectile = false;  ///< a side is a projectile
 
   [[nodiscard]] Vec3 apply(const Eigen::VectorXd& x) const {
     Vec3 g = Vec3::Zero();
