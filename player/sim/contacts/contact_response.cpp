@@ -118,7 +118,8 @@ class AugmentedLagrangian {
 
  private:
   /// κ_k grows where contact k pushed and still falls short by more than
-  /// ContactSettings::stalled_shortfall_share of its last shortfall.
+  /// ContactSettings::stalled_shortfall_share of its last shortfall, or falls short
+  /// where the last outer iteration met or overshot its target (it swings).
   void stiffen_if_stalled(std::size_t k, double shortfall) {
     const ContactSettings& settings = m_settings.contacts;
     Row& row = m_rows[k];
