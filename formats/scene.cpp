@@ -69,7 +69,7 @@ void read_box_corners(const Table& t, Vec3& min, Vec3& max) {
 
 void read_solver(const Table& t, SceneSolverSettings& s) {
   t.allow_only({"dt", "min_dt", "max_substep", "solver", "tolerance", "max_iterations", "preconditioner",
-                "refactor_iterations", "stiffness", "rotation", "exact_when_gaining", "exact_gain_share", "energy_halvings",
+                "refactor_iterations", "loose_node_slots", "stiffness", "rotation", "exact_when_gaining", "exact_gain_share", "energy_halvings",
                 "contact_iterations", "contact_sweeps", "rigid_resting_speed", "rigid_fragments_below", "rigid_when_gaining_below", "sleep_speed", "sleep_time", "threads", "max_splits_per_step"});
   t.read_number("dt", s.dt, [](double v) { return v > 0 && v <= 1; }, "0 < dt <= 1 [s]");
   t.read_number("min_dt", s.min_dt, [&](double v) { return v >= 0 && v <= s.dt; },
@@ -84,6 +84,7 @@ void read_solver(const Table& t, SceneSolverSettings& s) {
   t.read_choice("preconditioner", s.preconditioner,
                 {{"cholesky", ScenePreconditioner::Cholesky}, {"jacobi", ScenePreconditioner::Jacobi}});
   t.read_integer("refactor_iterations", s.refactor_iterations, 1, INT_MAX, "an integer >= 1");
+  t.read_integer("loose_node_slots", s.loose_node_slots, 0, 8, "an integer in 0 … 8 (0 = none)");
   t.read_choice("stiffness", s.stiffness, {{"warped", SceneStiffness::Warped}, {"exact", SceneStiffness::Exact}});
   t.read_choice("rotation", s.rotation, {{"arc", SceneRotation::Arc}, {"line", SceneRotation::Line}});
   t.read_choice("exact_when_gaining", s.exact_when_gaining,

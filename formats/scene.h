@@ -133,6 +133,9 @@ struct SceneSolverSettings {
   int max_iterations = 500;  ///< CG iterations per solve, ≥ 1
   ScenePreconditioner preconditioner = ScenePreconditioner::Cholesky;  ///< for "cg"
   int refactor_iterations = 8;  ///< "cholesky": refactor after a solve that took more iterations, ≥ 1
+  /// "cholesky": nodes in at most this many tets are eliminated afresh each step beside
+  /// the lagged factor (sim::LooseNodes), 0 … 8; 0 = none (record 0084).
+  int loose_node_slots = 0;
   SceneStiffness stiffness = SceneStiffness::Warped;  ///< stiffness-warped or exact corotated tangent
   /// How a fragment's rigid turn within a step is applied (sim/rigid_rotation.h).
   SceneRotation rotation = SceneRotation::Arc;

@@ -220,6 +220,7 @@ LoadedScene load_scene(const formats::Scene& scene) {
                                      ? sim::Preconditioner::Jacobi
                                      : sim::Preconditioner::LaggedCholesky;
   settings.step.refactor_iterations = scene.solver.refactor_iterations;
+  settings.step.loose_node_slots = scene.solver.loose_node_slots;
   settings.rotate_on_arcs = scene.solver.rotation == formats::SceneRotation::Arc;
   settings.exact_when_gaining = exact_resolve(scene.solver.exact_when_gaining);
   settings.exact_gain_share = scene.solver.exact_gain_share;

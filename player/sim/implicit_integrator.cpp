@@ -25,6 +25,10 @@ constexpr double kMinCornerWeight = 0.05;
 /// Below this solid fraction a tet counts as this much: an empty cage tet still has
 /// to move with its nodes, and a massless node makes M singular.
 constexpr double kMinMassFraction = 1e-3;
+/// LooseNodes: the largest part eliminated densely each step (record 0084: with
+/// StepSettings::loose_node_slots = 4 and no limit, the sample's parts joined into ones
+/// that tripled its solve phase).
+constexpr int kLoosePartNodes = 64;
 }  // namespace
 
 const char* to_string(SolveStatus status) {
@@ -235,11 +239,7 @@ void ImplicitIntegrator::set_system_scales(double h) {
 bool ImplicitIntegrator::prepare(const StepSettings& s) {
   const bool lagged = s.solver == LinearSolver::ConjugateGradient && s.preconditioner == Preconditioner::LaggedCholesky;
   if (!lagged) return true;
-  if (m_pattern_dirty) {
-    m_system.build(m_elasticity.tets(), m_pinned);
-    m_factor.reset();
-    m_pattern_dirty = false;
-  }
+  update_pattern(s);
   if (m_system.free_count() == 0) return true;
   evaluate(s, false);
   set_system_scales(s.dt);
@@ -263,11 +263,7 @@ void ImplicitIntegrator::evaluate(const StepSettings& settings, bool with_stress
 
 SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
   auto phase_start = Clock::now();
-  if (m_pattern_dirty) {
-    m_system.build(m_elasticity.tets(), m_pinned);
-    m_factor.reset();
-    m_pattern_dirty = false;
-  }
+  update_pattern(s);
   if (m_system.free_count() == 0) {
     // Pinned whole: nothing moves (a factorization of the empty system would fail).
     m_iterations = 0;
@@ -337,6 +333,19 @@ Eigen::VectorXd ImplicitIntegrator::right_hand_side(const StepSettings& s) {
   return b;
 }
 
+void ImplicitIntegrator::update_pattern(const StepSettings& settings) {
+  const bool rebuild = m_pattern_dirty;
+  if (rebuild) {
+    m_system.build(m_elasticity.tets(), m_pinned);
+    m_factor.reset();
+    m_pattern_dirty = false;
+  }
+  if (rebuild || settings.loose_node_slots != m_loose_node_slots) {
+    m_loose_node_slots = settings.loose_node_slots;
+    m_loose_nodes.find(m_elasticity.tets(), m_system, m_loose_node_slots, kLoosePartNodes);
+  }
+}
+
 bool ImplicitIntegrator::refactor(bool lagged) {
   ++m_factorizations;
   return m_factor.factorize(m_system.matrix(), m_system_k_scale, m_system_m_scale, m_elements.rotations, lagged);
@@ -351,6 +360,9 @@ SolveStatus ImplicitIntegrator::solve_iteratively(const StepSettings& s, const E
   }
   if (s.preconditioner == Preconditioner::LaggedCholesky) {
     m_factor.follow_rotations(m_elements.rotations, m_system);
+    if (!m_loose_nodes.empty()) {
+      m_loose_nodes.update(m_elasticity, m_elements, m_mass, m_system, m_system_k_scale, m_system_m_scale);
+    }
     m_system_form = SystemForm::MatrixFree;
     m_system_inverse = SystemInverse::RotatedFactor;
   } else {
@@ -401,7 +413,13 @@ void ImplicitIntegrator::precondition_system(const Eigen::VectorXd& r, Eigen::Ve
   switch (m_system_inverse) {
     case SystemInverse::Factor: m_factor.solve(r, z); return;
     case SystemInverse::Jacobi: z = m_inverse_diagonal.cwiseProduct(r); return;
-    case SystemInverse::RotatedFactor: m_factor.rotated_solve(r, z); return;
+    case SystemInverse::RotatedFactor:
+      if (m_loose_nodes.empty()) {
+        m_factor.rotated_solve(r, z);
+      } else {
+        m_loose_nodes.precondition(r, z, [&](const Eigen::VectorXd& core, Eigen::VectorXd& out) { m_factor.rotated_solve(core, out); });
+      }
+      return;
     case SystemInverse::None: break;
   }
   z = r;

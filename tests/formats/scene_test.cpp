@@ -34,6 +34,7 @@ tolerance = 1e-4
 max_iterations = 50
 preconditioner = "jacobi"
 refactor_iterations = 3
+loose_node_slots = 2
 stiffness = "exact"
 rotation = "line"
 contact_iterations = 3
@@ -129,6 +130,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(scene.solver.max_iterations, 50);
   EXPECT_EQ(scene.solver.preconditioner, ScenePreconditioner::Jacobi);
   EXPECT_EQ(scene.solver.refactor_iterations, 3);
+  EXPECT_EQ(scene.solver.loose_node_slots, 2);
   EXPECT_EQ(scene.solver.stiffness, SceneStiffness::Exact);
   EXPECT_EQ(scene.solver.rotation, SceneRotation::Line);
   EXPECT_EQ(scene.solver.contact_iterations, 3);
@@ -190,12 +192,12 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(bunny.pin_boxes[0].min, Vec3(-1, -1, 0));
   EXPECT_EQ(bunny.pin_boxes[0].max, Vec3(1, 1, 0.1));
   EXPECT_EQ(bunny.pin_nodes, (std::vector<Index>{3, 1, 4, 15}));
-  EXPECT_EQ(bunny.line, 51);
+  EXPECT_EQ(bunny.line, 52);
 
   const SceneObject& cube = scene.objects[1];
   EXPECT_EQ(cube.name, "cube");  // the bundle's stem when no name is given
   EXPECT_EQ(cube.bundle, std::filesystem::path("scenes/other/cube.h5"));
-  EXPECT_EQ(cube.line, 80);
+  EXPECT_EQ(cube.line, 81);
 
   ASSERT_EQ(scene.projectiles.size(), 1u);
   const SceneProjectile& p = scene.projectiles[0];
@@ -206,7 +208,7 @@ TEST(SceneReader, ReadsEveryField) {
   EXPECT_EQ(p.launch_time, 1.5);
   EXPECT_EQ(p.restitution, 0.8);
   EXPECT_EQ(p.friction, 0.1);
-  EXPECT_EQ(p.line, 83);
+  EXPECT_EQ(p.line, 84);
 }
 
 // The keys that no shipped scene sets (issue 47: every key is set by a shipped or a test
@@ -489,6 +491,7 @@ TEST(SceneReader, OutOfRangeValuesNameKeyAndLine) {
       {"[solver]\ntolerance = 0\n", "solver.tolerance = 0 is out of range", 4},
       {"[solver]\nmax_iterations = 0\n", "solver.max_iterations = 0 is out of range", 4},
       {"[solver]\nrefactor_iterations = 0\n", "solver.refactor_iterations = 0 is out of range", 4},
+      {"[solver]\nloose_node_slots = 9\n", "solver.loose_node_slots = 9 is out of range", 4},
       {"[solver]\nmax_iterations = 10000000000\n", "solver.max_iterations = 10000000000 is out of range", 4},
       {"[solver]\nthreads = -1\n", "solver.threads = -1 is out of range", 4},
       {"[solver]\ncontact_iterations = 0\n", "solver.contact_iterations = 0 is out of range", 4},
