@@ -152,14 +152,14 @@ void LooseNodes::eliminate(const Eigen::VectorXd& r) {
 void LooseNodes::back_substitute(Eigen::VectorXd& z) {
   for (Part& part : m_parts) {
     if (!part.factored) continue;
-    Eigen::VectorXd pull = Eigen::VectorXd::Zero(part.answer.size());
+    part.pull.setZero(part.answer.size());
     for (const Coupling& c : part.couplings) {
-      pull.segment<3>(3 * static_cast<Eigen::Index>(c.place)) += c.block * z.segment<3>(3 * static_cast<Eigen::Index>(c.core));
+      part.pull.segment<3>(3 * static_cast<Eigen::Index>(c.place)) += c.block * z.segment<3>(3 * static_cast<Eigen::Index>(c.core));
     }
-    part.loose.solveInPlace(pull);
+    if (!part.couplings.empty()) part.loose.solveInPlace(part.pull);
     for (std::size_t i = 0; i < part.blocks.size(); ++i) {
       const auto local = 3 * static_cast<Eigen::Index>(i);
-      z.segment<3>(3 * static_cast<Eigen::Index>(part.blocks[i])) = part.answer.segment<3>(local) - pull.segment<3>(local);
+      z.segment<3>(3 * static_cast<Eigen::Index>(part.blocks[i])) = part.answer.segment<3>(local) - part.pull.segment<3>(local);
     }
   }
 }

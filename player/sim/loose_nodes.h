@@ -68,6 +68,7 @@ class LooseNodes {
     bool factored = false;                 ///< A_ll's factorization succeeded this step
     std::vector<Coupling> couplings;       ///< A_lc
     Eigen::VectorXd answer;                ///< y_l = A_ll⁻¹ r_l (scratch of precondition())
+    Eigen::VectorXd pull;                  ///< A_ll⁻¹ A_lc z_c (scratch of precondition())
   };
   void update_part(Part& part, const CorotatedElasticity& elasticity, const ElementBuffers& elements,
                    const Eigen::VectorXd& mass, const BlockSystem& system, double k_scale, double m_scale) const;
