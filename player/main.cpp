@@ -30,7 +30,7 @@ struct RunArgs {
   bool no_render = false, no_walls = false, no_normal_mapping = false;
   bool no_diagnostics = false, no_energy_check = false;
   int threads = -1;
-  std::string report, trajectory, frames, video, size = "1280x720", backend = "osmesa";
+  std::string report, step_log, trajectory, frames, video, size = "1280x720", backend = "osmesa";
 };
 
 /// `view`'s command line, as parsed.
@@ -72,6 +72,9 @@ CLI::App* add_run_command(CLI::App& app, RunArgs& a) {
       ->check(CLI::Range(0L, 1'000'000'000L))  // 9e18 steps would run for ever
       ->capture_default_str();
   run->add_option("--report", a.report, "Write a JSON report (timings per phase, energy, momentum, fragments, penetration)");
+  run->add_option("--step-log", a.step_log,
+                  "Write a CSV line per step (each phase's ms, iterations, factorizations, splits, contacts), to find what "
+                  "made a step slow");
   run->add_option("--trajectory", a.trajectory, "Write node trajectories and fracture events (HDF5)");
   run->add_option("--trajectory-every", a.options.trajectory_every, "Record every k-th step in the trajectory")
       ->capture_default_str();
@@ -138,6 +141,7 @@ int run_command(RunArgs& a) {
   }
   options.report = a.report;
   options.trajectory = a.trajectory;
+  options.step_log = a.step_log;
   options.diagnostics = !a.no_diagnostics;
   options.energy_check = !a.no_energy_check;
   return player::run_scene(scene, options);

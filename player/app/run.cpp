@@ -17,6 +17,7 @@
 #include "player/app/run_report.h"
 #include "player/app/run_statistics.h"
 #include "player/app/scene_loader.h"
+#include "player/app/step_log.h"
 #include "player/app/trajectory_recorder.h"
 
 namespace fissure::player {
@@ -120,6 +121,7 @@ void check_outputs(const formats::Scene& scene, const RunOptions& options) {
   for (const formats::SceneObject& object : scene.objects) inputs.push_back(object.bundle);
   if (!options.report.empty()) check_output_path(options.report, inputs, "--report");
   if (!options.trajectory.empty()) check_output_path(options.trajectory, inputs, "--trajectory");
+  if (!options.step_log.empty()) check_output_path(options.step_log, inputs, "--step-log");
   if (!options.images.video.empty()) check_output_path(options.images.video, inputs, "--video");
   const auto& frames = options.images.frames;
   std::error_code ec;
@@ -165,6 +167,8 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
     diagnostics->stop_on_energy_gain = options.energy_check;
   }
   if (trajectory) loop.add(*trajectory);
+  std::optional<StepLog> step_log;
+  if (!options.step_log.empty()) loop.add(step_log.emplace(options.step_log));
   ProgressLog progress(options.steps);
   loop.add(progress);
   std::unique_ptr<FrameOutput> images;
@@ -180,6 +184,7 @@ int run_scene(const formats::Scene& scene, const RunOptions& options) {
     write_report(options.report, loaded.world, record);
     std::printf("report     %s\n", options.report.string().c_str());
   }
+  if (step_log) std::printf("step log   %s\n", step_log->path().string().c_str());
   if (trajectory) std::printf("trajectory %s (%zu frames)\n", trajectory->path().string().c_str(), trajectory->frame_count());
   if (image_failure) throw *image_failure;  // after the report, which holds the run up to the failed frame
   if (images) {

@@ -1,6 +1,7 @@
 #pragma once
 /// `fissure-player run`: steps a scene headless through the run loop, prints per-phase
-/// timings and a summary, and optionally writes a JSON report and an HDF5 trajectory.
+/// timings and a summary, and optionally writes a JSON report, a CSV line per step and
+/// an HDF5 trajectory.
 
 #include <filesystem>
 
@@ -13,6 +14,7 @@ struct RunOptions {
   long steps = 600;
   std::filesystem::path report;      ///< JSON report; empty: none
   std::filesystem::path trajectory;  ///< HDF5 trajectory; empty: none
+  std::filesystem::path step_log;    ///< CSV, a line per step (StepLog); empty: none
   long trajectory_every = 1;         ///< record every k-th step
   bool diagnostics = true;           ///< energies and penetrations every step (timed, outside the step)
   bool energy_check = true;          ///< with diagnostics: stop a run that creates energy (Diagnostics)

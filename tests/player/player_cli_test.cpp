@@ -4,8 +4,14 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include "formats/bundle.h"
 #include "formats/image.h"
@@ -63,6 +69,50 @@ TEST_F(PlayerCli, RunsHeadlessAndWritesReportAndTrajectory) {
   for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
     EXPECT_EQ(entry.path().string().find(".tmp"), std::string::npos) << entry.path();
   }
+}
+
+/// The integer after "key": in a JSON text (the report's flat summary fields).
+long json_integer(const std::string& json, const std::string& key) {
+  const std::size_t at = json.find("\"" + key + "\":");
+  return at == std::string::npos ? -1 : std::stol(json.substr(at + key.size() + 3));
+}
+
+// Issue 42: a line per step, to find what made a step slow; its columns add up to the
+// report's totals.
+TEST_F(PlayerCli, StepLogHasALinePerStepThatAddsUpToTheReport) {
+  const auto report = dir.path() / "report.json", log = dir.path() / "steps.csv";
+  const auto result = player("run " + quoted(scene("")) + " --no-render --steps 250 --report " + quoted(report) +
+                             " --step-log " + quoted(log));
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_NE(result.output.find("step log   " + log.string()), std::string::npos) << result.output;
+  std::ifstream in(log);
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  EXPECT_EQ(line.rfind("step,time_s,step_ms,forces_ms,", 0), 0u) << line;
+  const auto columns = static_cast<std::size_t>(std::count(line.begin(), line.end(), ',') + 1);
+  std::map<std::string, std::size_t> column;
+  {
+    std::istringstream names(line);
+    for (std::string name; std::getline(names, name, ',');) column.emplace(name, column.size());
+  }
+  long steps = 0, contacts = 0, factorizations = 0;
+  while (std::getline(in, line)) {
+    std::vector<double> values;
+    std::istringstream fields(line);
+    for (std::string field; std::getline(fields, field, ',');) values.push_back(std::stod(field));
+    ASSERT_EQ(values.size(), columns) << line;
+    ++steps;
+    EXPECT_EQ(values[column.at("step")], static_cast<double>(steps));
+    EXPECT_NEAR(values[column.at("time_s")], 0.004 * static_cast<double>(steps), 1e-9);
+    EXPECT_GE(values[column.at("step_ms")], values[column.at("solve_ms")]);
+    contacts += std::lround(values[column.at("contacts")]);
+    factorizations += std::lround(values[column.at("factorizations")]);
+  }
+  EXPECT_EQ(steps, 250);
+  const std::string json = read_text(report);
+  EXPECT_GT(contacts, 0) << "the tets should have landed";
+  EXPECT_EQ(contacts, json_integer(json, "contacts"));
+  EXPECT_EQ(factorizations, json_integer(json, "factorizations"));
 }
 
 TEST_F(PlayerCli, WithoutFramesOrVideoItMakesNoImages) {
@@ -267,7 +317,7 @@ TEST_F(PlayerCli, OutputsThatAreNotRegularFilesAreRefusedBeforeTheRun) {
   const auto fifo = dir.path() / "out.fifo";
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   const std::string run = "run " + quoted(scene("")) + " --steps 5 ";
-  for (const char* option : {"--report", "--trajectory", "--video"}) {
+  for (const char* option : {"--report", "--step-log", "--trajectory", "--video"}) {
     const auto result = player(run + (std::string(option) == "--video" ? "" : "--no-render ") + option + " " + quoted(fifo));
     EXPECT_EQ(result.exit_code, 1) << option << "\n" << result.output;
     EXPECT_NE(result.output.find(std::string(option) + " " + fifo.string() + ": is a FIFO (named pipe), not a regular file"),
