@@ -204,7 +204,7 @@ int run_cage(const CageArgs& args) {
     throw Error("-o " + args.output + ": not a cage file name",
                 "name it .node (TetGen: writes .node and .ele), .msh (Gmsh 2.2) or .mesh (MEDIT)");
   }
-  for (const auto& file : formats::cage_files(args.output)) check_output_path(file, {args.mesh}, "-o");
+  for (const auto& file : formats::cage_files(args.output)) check_output_path(file, {args.mesh}, "-o", "cage.node");
   bake::check_bake_memory(args.mesh, options.tets, memory_limit_bytes(args.memory_limit_gib));
   bake::MeshImportOptions import;
   import.weld = args.weld;
@@ -315,7 +315,7 @@ formats::JunitSuite verify_one(const std::string& path, const formats::BundleBud
 
 int run_verify(const VerifyArgs& args) {
   std::vector<std::filesystem::path> bundles(args.bundles.begin(), args.bundles.end());
-  if (!args.junit.empty()) check_output_path(args.junit, bundles, "--junit");
+  if (!args.junit.empty()) check_output_path(args.junit, bundles, "--junit", "junit.xml");
   std::vector<formats::JunitSuite> suites;
   bool passed = true;
   for (const std::string& path : args.bundles) {

@@ -121,13 +121,13 @@ void install_output_signal_handlers() {
 }
 
 void check_output_path(const std::filesystem::path& path, const std::vector<std::filesystem::path>& inputs,
-                       std::string_view option) {
+                       std::string_view option, std::string_view example) {
   const std::string name = path.string();
   const std::string where = std::string(option) + " " + name;
   std::error_code ec;
   if (path.empty()) throw Error(std::string(option) + ": the output path is empty");
   if (std::filesystem::is_directory(path, ec)) {
-    throw Error(where + ": is a directory", "give a file name inside it, e.g. " + (path / "out.h5").string());
+    throw Error(where + ": is a directory", "give a file name inside it, e.g. " + (path / example).string());
   }
   require_not_special(path, option);
   for (const auto& input : inputs) {

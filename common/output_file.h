@@ -24,9 +24,10 @@ void install_output_signal_handlers();
 /// cannot be written: it is a directory or an existing non-regular file (a FIFO, a
 /// device, a socket), its folder is missing or not writable, or it is the same file as
 /// one of `inputs`. Removes stale temporaries of `path` left by
-/// killed runs, with a warning.
+/// killed runs, with a warning. `example`: the file name the hint for a directory
+/// suggests inside it, of the kind the option writes.
 void check_output_path(const std::filesystem::path& path, const std::vector<std::filesystem::path>& inputs,
-                       std::string_view option);
+                       std::string_view option, std::string_view example = "out.h5");
 
 /// A temporary file name beside `path`, registered for removal on a fatal signal while
 /// this object lives. Its destructor removes the file unless `commit` renamed it.

@@ -119,10 +119,10 @@ void print_images(const FrameOptions& options, const FrameOutput& images) {
 void check_outputs(const formats::Scene& scene, const RunOptions& options) {
   std::vector<std::filesystem::path> inputs{scene.file};
   for (const formats::SceneObject& object : scene.objects) inputs.push_back(object.bundle);
-  if (!options.report.empty()) check_output_path(options.report, inputs, "--report");
-  if (!options.trajectory.empty()) check_output_path(options.trajectory, inputs, "--trajectory");
-  if (!options.step_log.empty()) check_output_path(options.step_log, inputs, "--step-log");
-  if (!options.images.video.empty()) check_output_path(options.images.video, inputs, "--video");
+  if (!options.report.empty()) check_output_path(options.report, inputs, "--report", "report.json");
+  if (!options.trajectory.empty()) check_output_path(options.trajectory, inputs, "--trajectory", "trajectory.h5");
+  if (!options.step_log.empty()) check_output_path(options.step_log, inputs, "--step-log", "steps.csv");
+  if (!options.images.video.empty()) check_output_path(options.images.video, inputs, "--video", "video.mp4");
   const auto& frames = options.images.frames;
   std::error_code ec;
   if (!frames.empty() && std::filesystem::exists(frames, ec) && !std::filesystem::is_directory(frames, ec)) {

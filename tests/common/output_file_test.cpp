@@ -94,6 +94,19 @@ TEST(OutputFile, ChecksRefuseDirectoriesMissingFoldersAndInputs) {
   expect_refused(input, "is the input");
   expect_refused(dir / "." / "mesh.obj", "is the input");  // the same file by another name
   EXPECT_NO_THROW(check_output_path(dir / "out.h5", {input}, "-o"));
+  // A directory's hint suggests a file inside it of the kind the option writes.
+  const auto hint_for_directory = [&](const std::function<void()>& check) {
+    try {
+      check();
+    } catch (const Error& e) {
+      return e.hint();
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(hint_for_directory([&] { check_output_path(dir.path(), {}, "-o"); }),
+            "give a file name inside it, e.g. " + (dir.path() / "out.h5").string());
+  EXPECT_EQ(hint_for_directory([&] { check_output_path(dir.path(), {}, "--report", "report.json"); }),
+            "give a file name inside it, e.g. " + (dir.path() / "report.json").string());
 }
 
 TEST(OutputFile, ChecksRemoveOnlyTemporariesWhoseRunIsGone) {

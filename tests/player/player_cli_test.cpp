@@ -242,6 +242,7 @@ TEST_F(PlayerCli, OutputsThatWouldReplaceTheSceneOrABundleFailBeforeTheRun) {
   result = player("run " + quoted(scene_file) + " --no-render --steps 5 --report " + quoted(dir.path()));
   EXPECT_EQ(result.exit_code, 1) << result.output;
   EXPECT_NE(result.output.find("is a directory"), std::string::npos) << result.output;
+  EXPECT_NE(result.output.find("e.g. " + (dir.path() / "report.json").string()), std::string::npos) << result.output;
   EXPECT_EQ(read_text(scene_file), scene_text);
   EXPECT_EQ(read_text(bundle), bundle_bytes);
 }
