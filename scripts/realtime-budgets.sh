@@ -9,7 +9,8 @@
 # (PLAYER argument), never across machines.
 #   usage: scripts/realtime-budgets.sh [PLAYER]    (default: the release build's)
 #   SCENE_SOLVER="contact_sweeps = 0" adds that line to every scene's [solver] (an A/B of
-#   one setting with the same player).
+#   one setting with the same player). STEP_LOGS=DIR keeps each scene's `--step-log`
+#   (a CSV line per step) there, to see which steps make a scene's p99 and worst step.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 player=${1:-build/release/player/app/fissure-player}
@@ -21,6 +22,7 @@ if [[ ! -f out/bunny-5k-10024.h5 ]]; then
   "$bake" -q bake --mesh data/meshes/bunny-5k.obj --cage data/cages/bunny-5k-cage-10024.node -o out/bunny-5k-10024.h5
 fi
 export OPENBLAS_CORETYPE=${OPENBLAS_CORETYPE:-Prescott}
+[[ -n ${STEP_LOGS:-} ]] && mkdir -p "$STEP_LOGS"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 sample=data/scenes/bunny-drop.toml
@@ -33,8 +35,10 @@ play() {
   local name=$1 bundle_path=$2 expression=$3 steps=$4 threads=$5
   sed -e "s|\"../../out/bunny-5k.h5\"|\"$bundle_path\"|" -e "$expression" \
     -e "s|^\[solver\]\$|[solver]\n${SCENE_SOLVER:-}|" "$sample" > "$work/$name.toml"
+  local step_log=()
+  [[ -n ${STEP_LOGS:-} ]] && step_log=(--step-log "$STEP_LOGS/$name.csv")
   "$player" -q run "$work/$name.toml" --steps "$steps" --no-render --no-energy-check -j "$threads" \
-    --report "$work/$name.json" > /dev/null 2>&1 || echo "warning: $name exited $?" >&2
+    --report "$work/$name.json" "${step_log[@]}" > /dev/null 2>&1 || echo "warning: $name exited $?" >&2
 }
 
 for toughness in 0.6 0.8 1.0; do

@@ -6,12 +6,15 @@
 # scripts/bake-sample.sh first). Prints a Markdown table per variant and the geometric
 # means of the ratios (B ÷ A). A change to the bake plays each side's own bundle:
 # BUNDLE_A and BUNDLE_B (default out/bunny-5k.h5 for both). A setting's A/B with one
-# player: SOLVER_A and SOLVER_B, lines added to that side's [solver] table.
+# player: SOLVER_A and SOLVER_B, lines added to that side's [solver] table. A wider
+# set (the standard 12 are narrow: one variant's step moves 0.5–4× with its break-up):
+# TOUGHNESS, SPEEDS and FRICTIONS, space-separated lists (defaults "0.6 0.8 1.0",
+# "10 14", "0.4 0.8"); STEP_LOGS=DIR keeps each run's `--step-log` there.
 #   usage: [BUNDLE_A=A.h5 BUNDLE_B=B.h5] [SOLVER_A=… SOLVER_B=…] scripts/sample-variants.sh PLAYER_A PLAYER_B [STEPS]
-#          (STEPS default 480; e.g. SOLVER_B="rigid_resting_speed = 0.2")
+#          (STEPS default 480; e.g. SOLVER_B="rigid_resting_speed = 0.2", TOUGHNESS="0.6 0.7 0.8 0.9")
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[[ $# -ge 2 ]] || { sed -n '2,12p' "$0" >&2; exit 2; }
+[[ $# -ge 2 ]] || { sed -n '2,15p' "$0" >&2; exit 2; }
 a=$(realpath "$1")
 b=$(realpath "$2")
 steps=${3:-480}
@@ -25,9 +28,11 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 bundle_a=$(realpath "$bundle_a")
 bundle_b=$(realpath "$bundle_b")
-for toughness in 0.6 0.8 1.0; do
-  for speed in 10 14; do
-    for friction in 0.4 0.8; do
+step_logs=()
+[[ -n ${STEP_LOGS:-} ]] && mkdir -p "$STEP_LOGS"
+for toughness in ${TOUGHNESS:-0.6 0.8 1.0}; do
+  for speed in ${SPEEDS:-10 14}; do
+    for friction in ${FRICTIONS:-0.4 0.8}; do
       name="t${toughness}_v${speed}_f${friction}"
       for side in a b; do
         player=$a bundle=$bundle_a solver=${SOLVER_A:-}
@@ -35,8 +40,9 @@ for toughness in 0.6 0.8 1.0; do
         sed -e "s|\"../../out/bunny-5k.h5\"|\"$bundle\"|" -e "s/^toughness = .*/toughness = $toughness/" \
           -e "s/^velocity = \[12.0/velocity = [$speed.0/" -e "s/^friction = .*/friction = $friction/" \
           -e "s|^\[solver\]\$|[solver]\n$solver|" data/scenes/bunny-drop.toml > "$work/$name.$side.toml"
+        [[ -n ${STEP_LOGS:-} ]] && step_logs=(--step-log "$STEP_LOGS/$name.$side.csv")
         "$player" -q run "$work/$name.$side.toml" --steps "$steps" --no-render --no-energy-check \
-          --report "$work/$name.$side.json" > /dev/null 2>&1 || echo "warning: $name ($side) exited $?" >&2
+          --report "$work/$name.$side.json" "${step_logs[@]}" > /dev/null 2>&1 || echo "warning: $name ($side) exited $?" >&2
       done
     done
   done
