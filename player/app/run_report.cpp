@@ -41,6 +41,7 @@ void write_slowest_steps(JsonWriter& json, const std::vector<SlowStep>& slowest)
     json.key("solve_ms").value(1e3 * s.solve);
     json.key("collisions_ms").value(1e3 * s.collisions);
     json.key("fracture_ms").value(1e3 * s.fracture);
+    json.key("guard_ms").value(1e3 * s.guard);
     json.key("substeps").value(s.substeps);
     json.key("exact_substeps").value(s.exact_substeps);
     json.key("energy_halvings").value(s.energy_halvings);
@@ -80,6 +81,7 @@ void write_timings(JsonWriter& json, const RunRecord& run) {
   write_phase(json, "solve", s.solve, steps);
   write_phase(json, "fracture", s.fracture, steps);
   write_phase(json, "collisions", s.collisions, steps);
+  write_phase(json, "guard", s.guard, steps);
   write_phase(json, "step", s.step, steps);
   write_slowest_steps(json, s.slowest);
   if (run.diagnostics != nullptr) json.key("diagnostics_total_s").value(run.diagnostics->seconds);
@@ -166,7 +168,8 @@ void print_summary(const sim::World& world, const RunRecord& run) {
   std::printf("phase        mean ms    p99 ms    max ms\n");
   const std::pair<const char*, const PhaseStats*> rows[] = {
       {"forces", &s.forces},         {"assembly", &s.assembly},     {"solve", &s.solve},
-      {"fracture", &s.fracture},     {"collisions", &s.collisions}, {"step", &s.step}};
+      {"fracture", &s.fracture},     {"collisions", &s.collisions}, {"guard", &s.guard},
+      {"step", &s.step}};
   for (const auto& [name, p] : rows) {
     std::printf("%-10s %9.3f %9.3f %9.3f\n", name, 1e3 * per_step(p->total, steps), 1e3 * p->quantile(0.99), 1e3 * p->max);
   }

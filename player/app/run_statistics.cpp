@@ -41,6 +41,7 @@ void RunStatistics::keep_if_slow(const sim::StepReport& r, long index) {
                       r.solve,
                       r.collisions,
                       r.fracture,
+                      r.guard,
                       r.substeps,
                       r.exact_substeps,
                       r.energy_halvings,
@@ -61,6 +62,7 @@ void RunStatistics::on_step(const sim::World& /*world*/, const sim::StepReport& 
   solve.add(r.solve);
   fracture.add(r.fracture);
   collisions.add(r.collisions);
+  guard.add(r.guard);
   splits += r.splits.size();
   exposed += r.exposed.size();
   contacts += r.contacts.contacts;

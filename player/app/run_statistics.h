@@ -34,7 +34,7 @@ struct PhaseStats {
 /// the report must say (issue 42).
 struct SlowStep {
   long step = 0;  ///< the step's number in the run (1: the first)
-  double total = 0, solve = 0, collisions = 0, fracture = 0;  ///< [s]
+  double total = 0, solve = 0, collisions = 0, fracture = 0, guard = 0;  ///< [s]
   int substeps = 1, exact_substeps = 0, energy_halvings = 0, factorizations = 0, retaken_to_wake = 0;
   std::size_t splits = 0;
 };
@@ -44,7 +44,7 @@ class RunStatistics : public RunObserver {
   void on_start(const sim::World& world) override;
   void on_step(const sim::World& world, const sim::StepReport& report, long step) override;
 
-  PhaseStats forces, assembly, solve, fracture, collisions, step;
+  PhaseStats forces, assembly, solve, fracture, collisions, guard, step;
   std::size_t splits = 0, exposed = 0, contacts = 0, swept = 0, unconverged = 0, response_iterations = 0;
   std::size_t response_sweeps = 0;
   std::size_t rigid_answers = 0;  ///< large fragments at rest answered as rigid bodies, summed over responses

@@ -30,9 +30,9 @@ StepLog::~StepLog() {
 
 void StepLog::on_step(const sim::World& world, const sim::StepReport& report, long step) {
   const sim::ContactCounts& c = report.contacts;
-  std::fprintf(m_file, "%ld,%.9g,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%zu,%zu,%zu,%zu,%zu,%zu,%d,%d,%d\n", step,
+  std::fprintf(m_file, "%ld,%.9g,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%zu,%zu,%zu,%zu,%zu,%zu,%d,%d,%d\n", step,
                world.time(), 1e3 * report.total, 1e3 * report.forces, 1e3 * report.assembly, 1e3 * report.solve,
-               1e3 * report.fracture, 1e3 * report.collisions, report.substeps, report.solver_iterations,
+               1e3 * report.fracture, 1e3 * report.collisions, 1e3 * report.guard, report.substeps, report.solver_iterations,
                report.factorizations, report.splits.size(), static_cast<std::size_t>(world.fragment_count()), c.contacts, c.responses,
                c.response_iterations, c.response_sweeps, report.exact_substeps, report.energy_halvings,
                report.retaken_to_wake);

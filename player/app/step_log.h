@@ -32,7 +32,7 @@ class StepLog : public RunObserver {
 
   /// The columns, in order: the header line's names.
   static constexpr const char* kHeader =
-      "step,time_s,step_ms,forces_ms,assembly_ms,solve_ms,fracture_ms,collisions_ms,substeps,"
+      "step,time_s,step_ms,forces_ms,assembly_ms,solve_ms,fracture_ms,collisions_ms,guard_ms,substeps,"
       "solver_iterations,factorizations,splits,fragments,contacts,responses,response_iterations,"
       "response_sweeps,exact_substeps,energy_halvings,retaken_to_wake";
 

@@ -34,6 +34,10 @@ struct StepStatus {
 struct StepReport {
   StepStatus status;
   double forces = 0, assembly = 0, solve = 0, fracture = 0, collisions = 0;  ///< [s] wall clock
+  /// [s] the energy guard's own work (energy_guard.h): measuring each substep's energy,
+  /// its exact re-solves where the substep gained, chips moved rigidly. The contacts a
+  /// re-solve answers again count as collisions.
+  double guard = 0;
   double total = 0;                 ///< [s] wall clock of the whole step, phases and what lies between
   int substeps = 1;                 ///< > 1 when adaptive stepping halved dt
   int solver_iterations = 0;        ///< summed over bodies and substeps

@@ -221,6 +221,8 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
   const bool may_halve = EnergyGuard::halves_when_gaining(m_settings, dt, depth);
   const bool moves_chips = m_settings.rigid_when_gaining_below > 0;
   GuardedWorld world = guarded();
+  const auto guard_start = Clock::now();
+  const double collisions_before = report.collisions;
   // The exact re-solve measures the substep's energy anyway; without it, only where a
   // repair may follow (the start first: see EnergyGuard::solve_exactly_if_gaining).
   double energy = 0.0;
@@ -237,6 +239,7 @@ StepStatus World::advance(double dt, StepReport& report, int depth) {
     const double limit = std::max(m_guard.substep_limit(world), m_guard.budget().run_limit());
     energy = m_guard.move_gaining_chips_rigidly(world, energy, limit, report);
   }
+  report.guard += seconds_since(guard_start) - (report.collisions - collisions_before);
   if (may_halve && m_guard.above_all(world, energy)) {
     // Still above its budget after every repair, and above all the run was given: the
     // substep is too long for what happens in it (WorldSettings::energy_halvings).

@@ -15,7 +15,7 @@ bool* Features::find(const std::string& name) {
 
 void StepHistory::on_step(const sim::World& /*world*/, const sim::StepReport& report, long step) {
   const std::array<double, PhaseCount> seconds{report.forces + report.assembly, report.solve, report.fracture,
-                                               report.collisions, report.total};
+                                               report.collisions, report.guard, report.total};
   for (int p = 0; p < PhaseCount; ++p) {
     ms[p].push_back(static_cast<float>(1e3 * seconds[p]));
     if (ms[p].size() > kLength) ms[p].pop_front();

@@ -27,9 +27,9 @@ struct Shot {
 class StepHistory : public player::RunObserver {
  public:
   static constexpr std::size_t kLength = 240;
-  enum Phase { Forces, Solve, Fracture, Collisions, Step, PhaseCount };
+  enum Phase { Forces, Solve, Fracture, Collisions, Guard, Step, PhaseCount };
   static constexpr std::array<const char*, PhaseCount> kPhaseNames{"forces + assembly", "solve", "fracture",
-                                                                   "collisions", "step"};
+                                                                   "collisions", "energy guard", "step"};
 
   void on_step(const sim::World& world, const sim::StepReport& report, long step) override;
 
