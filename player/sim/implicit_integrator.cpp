@@ -25,6 +25,15 @@ constexpr double kMinCornerWeight = 0.05;
 /// Below this solid fraction a tet counts as this much: an empty cage tet still has
 /// to move with its nodes, and a massless node makes M singular.
 constexpr double kMinMassFraction = 1e-3;
+/// A lagged solve that has taken this many times StepSettings::refactor_iterations
+/// refactors at once and goes on from its iterate, instead of refactoring only at the
+/// next step. Where the factor no longer fits A (the exact re-solve left a factor of its
+/// own Hessian, or fragments just broken off spin fast at ν = 0.4999), conjugate
+/// gradients otherwise ran on to 300-500 iterations, 100-160 ms of a step, where a
+/// factorization of the sample's cage takes about what 35 iterations do.
+constexpr int kStaleFactorShare = 4;
+int stale_factor_iterations(const StepSettings& s) { return kStaleFactorShare * s.refactor_iterations; }
+
 /// LooseNodes: the largest part eliminated densely each step (record 0084: with
 /// StepSettings::loose_node_slots = 4 and no limit, the sample's parts joined into ones
 /// that tripled its solve phase).
@@ -297,7 +306,8 @@ SolveStatus ImplicitIntegrator::solve(const StepSettings& s) {
     m_system_inverse = SystemInverse::Factor;
   } else {
     if (refactor_lagged && !refactor(true)) return SolveStatus::NotPositiveDefinite;
-    status = solve_iteratively(s, b, dv);
+    status = solve_iteratively(s, b, dv, lagged && !refactor_lagged);
+    if (status == SolveStatus::NotPositiveDefinite) return status;
   }
   m_phase_times.solve = seconds_since(phase_start);
   if (!dv.allFinite()) return SolveStatus::NonFinite;
@@ -351,7 +361,8 @@ bool ImplicitIntegrator::refactor(bool lagged) {
   return m_factor.factorize(m_system.matrix(), m_system_k_scale, m_system_m_scale, m_elements.rotations, lagged);
 }
 
-SolveStatus ImplicitIntegrator::solve_iteratively(const StepSettings& s, const Eigen::VectorXd& b, Eigen::VectorXd& dv) {
+SolveStatus ImplicitIntegrator::solve_iteratively(const StepSettings& s, const Eigen::VectorXd& b, Eigen::VectorXd& dv,
+                                                  bool may_refactor) {
   // The warm start (see m_last_dv): extrapolated only across smooth solves.
   const bool extrapolate = m_smooth_solves >= 2 && s.dt == m_last_dt;
   for (Index c = 0; c < m_system.free_count(); ++c) {
@@ -372,8 +383,19 @@ SolveStatus ImplicitIntegrator::solve_iteratively(const StepSettings& s, const E
   }
   const auto product = [&](const Eigen::VectorXd& x, Eigen::VectorXd& y) { multiply_system(x, y); };
   const auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) { precondition_system(r, z); };
-  const ConjugateGradientResult cg = conjugate_gradient(product, b, dv, precondition, s.tolerance, s.max_iterations);
+  const int lagged_cap = may_refactor ? std::min(s.max_iterations, stale_factor_iterations(s)) : s.max_iterations;
+  ConjugateGradientResult cg = conjugate_gradient(product, b, dv, precondition, s.tolerance, lagged_cap);
   m_iterations = cg.iterations;
+  if (!cg.converged && lagged_cap < s.max_iterations) {
+    // The lagged factor has stopped fitting A (kStaleFactorShare): refactor now and go
+    // on from the iterate reached. m_iterations keeps the whole count, so the next step
+    // refactors too, as it would have after the long solve.
+    m_system.assemble(m_elasticity, m_elements, m_mass, m_system_k_scale, m_system_m_scale);
+    if (!refactor(true)) return SolveStatus::NotPositiveDefinite;
+    m_factor.follow_rotations(m_elements.rotations, m_system);
+    cg = conjugate_gradient(product, b, dv, precondition, s.tolerance, s.max_iterations - lagged_cap);
+    m_iterations += cg.iterations;
+  }
   return cg.converged ? SolveStatus::Converged : SolveStatus::MaxIterations;
 }
 

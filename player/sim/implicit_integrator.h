@@ -287,8 +287,10 @@ class ImplicitIntegrator {
   /// A's pattern after a split or pin (forgets the factor), and the loose nodes after
   /// either or a new StepSettings::loose_node_slots.
   void update_pattern(const StepSettings& settings);
-  /// Conjugate gradients from the warm start; Δv into dv.
-  SolveStatus solve_iteratively(const StepSettings& settings, const Eigen::VectorXd& b, Eigen::VectorXd& dv);
+  /// Conjugate gradients from the warm start; Δv into dv. With `may_refactor` (a lagged
+  /// factor made before this solve), a solve that runs long refactors and goes on.
+  SolveStatus solve_iteratively(const StepSettings& settings, const Eigen::VectorXd& b, Eigen::VectorXd& dv,
+                                bool may_refactor);
   /// v += Δv, x += h v on the free nodes; remembers Δv for the next warm start.
   void advance(const Eigen::VectorXd& dv, double h);
   void compute_tet_masses(double density);  ///< then lumps them

@@ -174,6 +174,54 @@ TEST(ImplicitIntegrator, LaggedCholeskyFollowsARigidRotationWithoutRefactoring) 
   }
 }
 
+// A lagged factor that no longer fits the system (nearly incompressible, factored at
+// rest, then twisted along its length: no rotation per node undoes that) is remade
+// within the solve once conjugate gradients have run 4 × refactor_iterations, and the
+// solve goes on from there to the direct solver's answer. Without that rule (a
+// refactor_iterations so large the cap is the solve's own) the same solve runs on with
+// the old factor.
+TEST(ImplicitIntegrator, AStaleLaggedFactorIsRemadeWithinTheSolve) {
+  const TetMesh cage = testing::grid_cage(Vec3::Zero(), Vec3(2.0, 0.5, 0.5), 6, 2, 2);
+  const Material rubber{.youngs_modulus = 1e6, .poisson_ratio = 0.4999};
+  Matrix3Xd twisted = cage.rest_positions;
+  for (Index n = 0; n < cage.node_count(); ++n) {
+    const double angle = 0.6 * cage.rest_positions(0, n);
+    twisted.col(n) = Eigen::AngleAxisd(angle, Vec3::UnitX()) * Vec3(cage.rest_positions.col(n));
+  }
+  StepSettings lagged;
+  lagged.solver = LinearSolver::ConjugateGradient;
+  lagged.preconditioner = Preconditioner::LaggedCholesky;
+  lagged.tolerance = 1e-10;
+  lagged.refactor_iterations = 2;
+  const auto twisted_step = [&](ImplicitIntegrator& body, const StepSettings& settings) {
+    EXPECT_TRUE(body.prepare(settings));  // factored at rest
+    body.set_positions(twisted);
+    EXPECT_EQ(body.step(settings), SolveStatus::Converged);
+  };
+  ImplicitIntegrator remade(cage.rest_positions, cage.tets, rubber);
+  twisted_step(remade, lagged);
+  EXPECT_EQ(remade.factorizations(), 2);
+  EXPECT_GT(remade.last_iterations(), 4 * lagged.refactor_iterations);      // ran to the cap on the old factor,
+  EXPECT_LE(remade.last_iterations(), 4 * lagged.refactor_iterations + 2);  // then converged on the new one
+
+  StepSettings never = lagged;
+  never.refactor_iterations = lagged.max_iterations;
+  ImplicitIntegrator kept(cage.rest_positions, cage.tets, rubber);
+  twisted_step(kept, never);
+  EXPECT_EQ(kept.factorizations(), 1);
+  EXPECT_GT(kept.last_iterations(), 4 * lagged.refactor_iterations + 2);
+  std::printf("twisted solve: %d iterations on the factor made at rest, %d with it remade after %d\n",
+              kept.last_iterations(), remade.last_iterations(), 4 * lagged.refactor_iterations);
+
+  ImplicitIntegrator direct(cage.rest_positions, cage.tets, rubber);
+  direct.set_positions(twisted);
+  ASSERT_EQ(direct.step(StepSettings{}), SolveStatus::Converged);
+  const double moved = (direct.positions() - twisted).norm();
+  EXPECT_GT(moved, 0.0);
+  EXPECT_LT((remade.positions() - direct.positions()).norm(), 1e-6 * moved);
+  EXPECT_LT((kept.positions() - direct.positions()).norm(), 1e-6 * moved);
+}
+
 // prepare() does the first solve's factorization ahead: the first step then factors
 // nothing and lands on exactly the state (bit for bit) of a body that factored in it.
 TEST(ImplicitIntegrator, PrepareFactorsAheadAndTheFirstStepAnswersTheSame) {
