@@ -132,7 +132,7 @@ struct SceneSolverSettings {
   double tolerance = 1e-4;
   int max_iterations = 500;  ///< CG iterations per solve, ≥ 1
   ScenePreconditioner preconditioner = ScenePreconditioner::Cholesky;  ///< for "cg"
-  int refactor_iterations = 8;  ///< "cholesky": refactor after a solve that took more iterations, ≥ 1
+  int refactor_iterations = 8;  ///< "cholesky": refactor after a solve taking more iterations (0085), ≥ 1
   /// "cholesky": nodes in at most this many tets are eliminated afresh each step beside
   /// the lagged factor (sim::LooseNodes), 0 … 8; 0 = none (record 0084).
   int loose_node_slots = 0;

@@ -39,8 +39,8 @@ enum class LinearSolver { Direct, ConjugateGradient };
 ///    block-diagonal, each node's rotation since the factorization (the polar part of
 ///    the sum of its tets' rotation changes). So P = R A_f Rᵀ stays a close
 ///    preconditioner through large rigid-like motion, and is refactored only when an
-///    iteration count exceeds `refactor_iterations`, the pattern changes (fracture) or
-///    dt changes.
+///    iteration count exceeds `refactor_iterations` (at once, within a solve that runs
+///    to 4× that), the pattern changes (fracture) or dt changes.
 enum class Preconditioner { Jacobi, LaggedCholesky };
 
 enum class SolveStatus { Converged, MaxIterations, NotPositiveDefinite, NonFinite };
@@ -55,7 +55,9 @@ struct StepSettings {
   double tolerance = 1e-8;             ///< relative residual for conjugate gradients
   int max_iterations = 1000;           ///< conjugate-gradient cap
   Preconditioner preconditioner = Preconditioner::LaggedCholesky;
-  int refactor_iterations = 8;         ///< LaggedCholesky: refactor after a solve that took more
+  /// LaggedCholesky: refactor after a solve that took more iterations, and within a solve
+  /// once it has taken 4× as many (record 0085).
+  int refactor_iterations = 8;
   /// LaggedCholesky: nodes in at most this many tets are eliminated afresh each step
   /// beside the factor (LooseNodes); 0 = none. 3 takes the 10,024-tet bunny cage's step
   /// ×0.67 but the 987-tet sample's variants ×1.05 (record 0084).
