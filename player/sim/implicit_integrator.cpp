@@ -27,10 +27,10 @@ constexpr double kMinCornerWeight = 0.05;
 constexpr double kMinMassFraction = 1e-3;
 /// A lagged solve that has taken this many times StepSettings::refactor_iterations
 /// refactors at once and goes on from its iterate, instead of refactoring only at the
-/// next step. Where the factor no longer fits A (the exact re-solve left a factor of its
-/// own Hessian, or fragments just broken off spin fast at ν = 0.4999), conjugate
-/// gradients otherwise ran on to 300-500 iterations, 100-160 ms of a step, where a
-/// factorization of the sample's cage takes about what 35 iterations do.
+/// next step. Where the factor no longer fits A (the exact re-solve left the factor of
+/// its last Newton system, or fragments just broken off spin fast at ν = 0.4999),
+/// conjugate gradients otherwise ran on to 300-500 iterations, 100-160 ms of a step,
+/// where a factorization of the sample's cage takes about what 35 iterations do.
 constexpr int kStaleFactorShare = 4;
 int stale_factor_iterations(const StepSettings& s) { return kStaleFactorShare * s.refactor_iterations; }
 
