@@ -4,9 +4,10 @@
 # --no-render; prints a Markdown table of the mean, p99 and worst step, the collision
 # phase and its share of the step, against each budget. Needs out/bunny-5k.h5 (run
 # scripts/bake-sample.sh first); bakes out/bunny-5k-10024.h5 (the 10,024-tet cage) when
-# it is missing. Takes several minutes on 2 cores, most of it the toughness 0 and
-# ν = 0.4999 runs. Timings are of this machine: compare players in the same run
-# (PLAYER argument), never across machines.
+# it is missing. Takes a minute or two on 2 cores, most of it the toughness 0 and
+# ν = 0.4999 runs; fracture off runs five times (its p99 is a few 2-3 ms steps).
+# Timings are of this machine: compare players in the same run (PLAYER argument), never
+# across machines.
 #   usage: scripts/realtime-budgets.sh [PLAYER]    (default: the release build's)
 #   SCENE_SOLVER="contact_sweeps = 0" adds that line to every scene's [solver] (an A/B of
 #   one setting with the same player). STEP_LOGS=DIR keeps each scene's `--step-log`
@@ -51,6 +52,12 @@ for toughness in 0.6 0.8 1.0; do
 done
 play sample "$bundle" "" 480 2
 play no_fracture "$bundle" "s/^fracture = true/fracture = false/" 480 2
+# Its steps take 0.5 ms, so its p99 (the 5th-slowest of 480 steps, 2-3 ms) moves with
+# the machine's hiccups: the same bits gave 4.7-6.2 × the mean in five runs. Four more
+# runs; the table shows the run of the median p99 ÷ mean, and the range below it.
+for run in 2 3 4 5; do
+  STEP_LOGS='' play "no_fracture_run$run" "$bundle" "s/^fracture = true/fracture = false/" 480 2
+done
 play cage_10024 "$fine" "" 480 2
 play toughness_0 "$bundle" "s/^toughness = .*/toughness = 0.0/" 240 2
 play toughness_0p2 "$bundle" "s/^toughness = .*/toughness = 0.2/" 480 1
@@ -83,7 +90,11 @@ def row(name, label, budget, holds):
     rows.append((label, f"{x['steps']}", x["mean"], x["p99"], x["max"], x["coll"], x["frag"], budget, holds(x)))
     return x
 sample = row("sample", "sample as shipped (toughness 0.8)", "–", lambda x: True)
-row("no_fracture", "sample, fracture off", "collisions ≤ 25 % of the step", lambda x: x["coll"] <= 0.25 * x["mean"])
+runs = {p.stem: figures(load(p.stem)) for p in work.glob("no_fracture*.json")}
+ordered = sorted(runs, key=lambda name: runs[name]["p99"] / runs[name]["mean"])
+tail_ratios = [runs[name]["p99"] / runs[name]["mean"] for name in ordered]
+row(ordered[len(ordered) // 2] if ordered else "no_fracture", f"sample, fracture off (median of {len(runs)} runs)",
+    "collisions ≤ 25 % of the step", lambda x: x["coll"] <= 0.25 * x["mean"])
 row("cage_10024", "sample in the 10,024-tet cage", "step ≤ 8 ms; collisions ≤ 1.5 × the 987-tet cage's",
     lambda x: x["mean"] <= 8.0 and sample is not None and x["coll"] <= 1.5 * sample["coll"])
 row("toughness_0", "toughness 0", "step ≤ 25 ms", lambda x: x["mean"] <= 25.0)
@@ -100,4 +111,7 @@ for label, steps, mean, p99, worst, coll, frag, budget, holds in rows:
           f"{'yes' if holds else 'no'}{'' if tail_ok else '; p99 or worst over'} |")
 print()
 print("Every scene's budget also asks p99 ≤ 4 × mean and no step over 250 ms ('p99 or worst over' marks a miss).")
+if tail_ratios:
+    print(f"Fracture off, p99 ÷ mean over its {len(tail_ratios)} runs: "
+          + ", ".join(f"{r:.2f}" for r in tail_ratios) + " (the table shows the median run).")
 PY
