@@ -12,7 +12,7 @@ Then the slowest step, with its largest phase. Phases are the player's own timin
 (docs/cli.md); `other` is the step less their sum (bookkeeping, arcs, the report).
 
   usage: scripts/step-log-summary.py LOG.csv [LOG.csv ...]
-  e.g.   STEP_LOGS=/tmp/logs scripts/realtime-budgets.sh && scripts/step-log-summary.py /tmp/logs/*.csv
+  e.g.   STEP_LOGS=logs scripts/realtime-budgets.sh && scripts/step-log-summary.py logs/*.csv
 """
 import csv
 import pathlib
