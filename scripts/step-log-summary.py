@@ -4,10 +4,12 @@
 One Markdown row per log: the mean step and its phases, then what the run pays for
 its lagged factor, split by the kind of step:
   - steps with a factorization (`factor steps`): how many, and their solve and
-    assembly in ms per step of the whole run;
+    assembly in ms per step of the whole run. The log's count includes the energy
+    guard's factorizations (its exact re-solves), whose time is in `guard`;
   - of those, the steps that split nodes: a split changes the matrix's pattern, so the
     solver must analyse and factor afresh there whatever else it does (`split floor`);
-  - the other steps' CG iterations and ms per iteration, the price of not refactoring.
+  - the other steps' median CG iterations, and their solve time per iteration (fixed
+    costs per solve included), the price of not refactoring.
 Then the slowest step, with its largest phase. Phases are the player's own timings
 (docs/cli.md); `other` is the step less their sum (bookkeeping, arcs, the report).
 
@@ -25,10 +27,12 @@ NEEDED = ["step", "step_ms", "solver_iterations", "factorizations", "splits", "r
 
 def read(path):
     try:
-        with open(path, newline="") as f:
+        with open(path, newline="", encoding="utf-8") as f:
             rows = list(csv.DictReader(f))
     except OSError as e:
         sys.exit(f"error: {path}: cannot read: {e.strerror}")
+    except (UnicodeDecodeError, csv.Error):
+        sys.exit(f"error: {path}: not a --step-log file (not CSV text)")
     if not rows:
         sys.exit(f"error: {path}: no steps: empty, or not a --step-log file")
     missing = [c for c in NEEDED if c not in rows[0]]
@@ -41,7 +45,7 @@ def read(path):
         sys.exit(f"error: {path}: a value is not a number (the file is cut short or edited)")
 
 
-def summarize(path):
+def summarize(path, name):
     steps = read(path)
     n = len(steps)
     per_step = lambda rows, cols: sum(r[c] for r in rows for c in cols) / n  # ms per step of the run
@@ -54,7 +58,7 @@ def summarize(path):
     step = per_step(steps, ["step_ms"])
     phases = {c: per_step(steps, [c]) for c in PHASES}
     return {
-        "log": pathlib.Path(path).stem,
+        "log": name,
         "steps": n,
         "step": step,
         "phases": phases,
@@ -72,12 +76,19 @@ def summarize(path):
 
 
 def main(paths):
+    usage = __doc__.split("\n\n")[-1].rstrip()
+    if paths and paths[0] in ("-h", "--help"):
+        print(__doc__.rstrip())
+        return
     if not paths:
-        print(__doc__.split("\n\n")[-1].rstrip(), file=sys.stderr)
+        print(usage, file=sys.stderr)
         sys.exit(2)
-    summaries = [summarize(path) for path in paths]  # every file read before anything is printed
+    # A row is named by its file's stem, or by its path where two stems are the same.
+    stems = [pathlib.Path(p).stem for p in paths]
+    names = [stem if stems.count(stem) == 1 else path for stem, path in zip(stems, paths)]
+    summaries = [summarize(p, n) for p, n in zip(paths, names)]  # every file read before anything is printed
     print("| log | steps | step ms | forces + assembly | solve | fracture | collisions | guard | other "
-          "| factor steps: count, ms | split floor: count, ms | lagged steps: median CG, ms per CG "
+          "| factor steps: count, ms | split floor: count, ms | lagged steps: median CG, solve ms per CG "
           "| response CG | worst step ms |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---|---:|---|")
     for s in summaries:
@@ -89,7 +100,8 @@ def main(paths):
               f"| {s['lagged_iterations']:.0f}, {s['ms_per_iteration']:.3f} | {s['response_iterations']} | {s['worst']} |")
     print()
     print("ms columns are per step of the whole run (a column's total ÷ steps). Factor steps: solve and assembly "
-          "of the steps that factorized; split floor: the same for those that also split nodes.")
+          "of the steps that factorized (the count includes the energy guard's, whose time is in guard); "
+          "split floor: the same for those that also split nodes.")
 
 
 if __name__ == "__main__":
